@@ -1,0 +1,56 @@
+"""Locate and import FreeCAD's Python modules from any Python 3 interpreter.
+
+FreeCAD must be imported before Part (the other order crashes the interpreter), and
+from a plain interpreter its library folder must be on ``sys.path`` first.
+"""
+import os
+import sys
+
+from .core.errors import FreeCADUnavailable
+
+#: Folders searched for FreeCAD.so, most specific first.
+FREECAD_LIB_DIRS = (
+    os.environ.get("HULLPROD_FREECAD_LIB", ""),
+    "/usr/lib/freecad-python3/lib",
+    "/usr/lib/freecad/lib",
+    "/usr/local/lib/freecad/lib",
+)
+
+
+def import_freecad():
+    """Return the ``FreeCAD`` module, importing it (and ``Part``) in the safe order."""
+    if "FreeCAD" in sys.modules:
+        import FreeCAD  # noqa: F401
+        import Part  # noqa: F401
+        return FreeCAD
+    for folder in FREECAD_LIB_DIRS:
+        if folder and os.path.isfile(os.path.join(folder, "FreeCAD.so")) and folder not in sys.path:
+            sys.path.append(folder)
+    try:
+        import FreeCAD  # noqa: F401
+        import Part  # noqa: F401
+    except ImportError as exc:
+        raise FreeCADUnavailable(
+            "FreeCAD's Python modules are not importable (%s); install the Debian package "
+            "'freecad' or set HULLPROD_FREECAD_LIB to the folder holding FreeCAD.so" % exc
+        ) from exc
+    return FreeCAD
+
+
+def freecad_available():
+    """True when FreeCAD can be imported here."""
+    try:
+        import_freecad()
+    except FreeCADUnavailable:
+        return False
+    return True
+
+
+def versions():
+    """FreeCAD and OpenCascade versions as strings, or None where FreeCAD is absent."""
+    try:
+        FreeCAD = import_freecad()
+        import Part
+    except FreeCADUnavailable:
+        return {"FreeCAD": None, "OCC": None}
+    return {"FreeCAD": ".".join(FreeCAD.Version()[:3]), "OCC": getattr(Part, "OCC_VERSION", None)}
