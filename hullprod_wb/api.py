@@ -1,0 +1,52 @@
+"""Public entry point: assess a hull given as a file, a FreeCAD object, a Part shape or a mesh.
+
+The two numerical realizations are never converted into each other: a BRep is integrated
+natively, a triangle mesh through discrete curvature (paper section 4).
+"""
+import os
+
+from .core.constants import DEFAULT_HF, DEFAULT_KF
+from .core.errors import InputError
+from .core.inputs import describe_file
+
+
+def representation_of(source):
+    """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
+    if isinstance(source, (str, os.PathLike)):
+        return describe_file(source)["representation"]
+    if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
+        return "mesh"
+    tname = type(source).__name__
+    if tname == "Mesh" or hasattr(source, "Mesh") and not hasattr(source, "Shape"):
+        return "mesh"
+    if hasattr(source, "Shape") or hasattr(source, "Faces"):
+        return "brep"
+    raise InputError("cannot assess an object of type %s: give a file path, a FreeCAD object with a "
+                     "Shape or Mesh, a Part.Shape, or a triangle mesh" % tname)
+
+
+def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, faces=None,
+           with_fields=True, progress=None, **options):
+    """Compute the producibility signature of source.
+
+    source: path (.stl .obj .ply .igs .iges .step .stp .brep), FreeCAD document object,
+    Part.Shape, Mesh.Mesh, trimesh.Trimesh or (vertices, faces). lref: reference length
+    in the input's units (None: automatic). h_f, k_f: class tolerances. backend: 'brep',
+    'mesh' or None (by representation). faces: 1-based BRep face numbers to assess.
+    options: BRep quadrature settings (order, rtol, max_depth). Returns an Assessment.
+    """
+    rep = representation_of(source)
+    if backend is not None and backend != rep:
+        raise InputError(
+            "the input is a %s and cannot be assessed by the %s backend: the two realizations are "
+            "never converted into each other (tessellate or fit it yourself and assess the result)"
+            % (rep, backend))
+    if rep == "mesh":
+        if faces:
+            raise InputError("--faces selects BRep faces; the input is a triangle mesh")
+        from .mesh.backend import assess_mesh
+        return assess_mesh(source, lref=lref, h_f=h_f, k_f=k_f, with_fields=with_fields,
+                           progress=progress)
+    from .brep.backend import assess_brep
+    return assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
+                       progress=progress, **options)

@@ -1,0 +1,139 @@
+"""Command line: ./hullprod analyze | example | study | batch.
+
+Exit status 0 on success whatever the validity, 2 with a one-line reason for bad input.
+With --json only the JSON document goes to stdout; progress and warnings go to stderr.
+"""
+import argparse
+import importlib
+import os
+import sys
+import time
+
+from .core.constants import DEFAULT_HF, DEFAULT_KF
+from .core.errors import InputError
+from .core.progress import StderrProgress, null_progress
+
+#: Modules that add further subcommands (each has add_parser(subparsers)); absent ones are skipped.
+PLUGIN_COMMANDS = ("hullprod_wb.studies.cli", "hullprod_wb.batch.cli")
+
+
+def parse_faces(text):
+    """'1,2,5' -> [1, 2, 5] (FreeCAD's Face1, Face2, ... numbering)."""
+    if text is None:
+        return None
+    try:
+        faces = [int(t) for t in text.replace(" ", "").split(",") if t]
+    except ValueError:
+        raise InputError("--faces takes face numbers separated by commas, e.g. 1,2; got %r" % text) from None
+    if not faces or min(faces) < 1:
+        raise InputError("--faces numbers start at 1 (Face1); got %r" % text)
+    return faces
+
+
+def add_common_options(p):
+    """Options shared by every command that assesses hulls."""
+    p.add_argument("--lref", type=float, default=None,
+                   help="reference length L_ref in the input's units (default: automatic principal-axis span)")
+    p.add_argument("--hf", type=float, default=DEFAULT_HF, help="mean-curvature tolerance h_f (default 1e-4)")
+    p.add_argument("--kf", type=float, default=DEFAULT_KF, help="Gaussian-curvature tolerance k_f (default 1e-4)")
+    p.add_argument("--backend", choices=("mesh", "brep"), default=None,
+                   help="require this realization (default: by input representation)")
+    p.add_argument("--faces", default=None, help="BRep faces to assess, e.g. 1,2 (default: all)")
+    q = p.add_argument_group("BRep quadrature")
+    q.add_argument("--order", type=int, default=None, help="Gauss-Legendre order per direction (default 5)")
+    q.add_argument("--rtol", type=float, default=None, help="local relative tolerance (default 1e-4)")
+    q.add_argument("--max-depth", type=int, default=None, help="maximum refinement depth (default 5)")
+
+
+def quadrature_options(args):
+    return {k: v for k, v in (("order", args.order), ("rtol", args.rtol), ("max_depth", args.max_depth))
+            if v is not None}
+
+
+def build_parser():
+    parser = argparse.ArgumentParser(prog="hullprod", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    a = sub.add_parser("analyze", help="signature of one hull file")
+    a.add_argument("input", help="hull file: .stl .obj .ply (mesh) or .igs .iges .step .stp .brep (BRep)")
+    add_common_options(a)
+    a.add_argument("--out", default=None, help="write signature.json/.csv and fields.vtp/.csv here")
+    a.add_argument("--overwrite", action="store_true", help="allow writing into a non-empty --out folder")
+    a.add_argument("--json", action="store_true", help="print only the JSON document on stdout")
+    a.add_argument("--no-fields", action="store_true", help="skip the distributed fields")
+    a.add_argument("--quiet", action="store_true", help="no progress messages")
+    a.set_defaults(func=run_analyze)
+
+    e = sub.add_parser("example", help="generate the built-in example hull and analyse it")
+    e.add_argument("--out", default=os.path.join("out", "example"),
+                   help="folder for the example geometry and results (default out/example, overwritten)")
+    e.add_argument("--json", action="store_true", help="print only the JSON document on stdout")
+    e.add_argument("--quiet", action="store_true", help="no progress messages")
+    e.set_defaults(func=run_example)
+
+    for name in PLUGIN_COMMANDS:
+        try:
+            mod = importlib.import_module(name)
+        except ImportError:
+            continue
+        mod.add_parser(sub)
+    return parser
+
+
+def report(result, args, paths=None):
+    """Print the signature table (or the JSON document) and where outputs went."""
+    if getattr(args, "json", False):
+        sys.stdout.write(result.to_json() + "\n")
+        for w in result.warnings:
+            sys.stderr.write("warning: %s\n" % w)
+        return
+    print(result.summary_table())
+    if paths:
+        for kind, path in paths.items():
+            print("wrote %-10s %s" % (kind, path))
+
+
+def run_analyze(args):
+    from .api import assess
+    progress = null_progress if args.quiet else StderrProgress()
+    result = assess(args.input, lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
+                    faces=parse_faces(args.faces), with_fields=not args.no_fields or bool(args.out),
+                    progress=progress, **quadrature_options(args))
+    paths = result.save(args.out, overwrite=args.overwrite) if args.out else None
+    report(result, args, paths)
+    return 0
+
+
+def run_example(args):
+    from .api import assess
+    from .examples.builtin import write_builtin_example
+    progress = null_progress if args.quiet else StderrProgress()
+    os.makedirs(args.out, exist_ok=True)
+    path, lref, description = write_builtin_example(args.out)
+    if not args.json:
+        print("built-in example: %s\n  %s" % (description, path))
+    t0 = time.perf_counter()
+    result = assess(path, lref=lref, progress=progress)
+    paths = result.save(os.path.join(args.out, "results"), overwrite=True)
+    report(result, args, paths)
+    if not args.json:
+        print("analysed in %.2f s" % (time.perf_counter() - t0))
+    return 0
+
+
+def main(argv=None):
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except InputError as exc:
+        sys.stderr.write("hullprod: error: %s\n" % " ".join(str(exc).split()))
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("hullprod: interrupted\n")
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

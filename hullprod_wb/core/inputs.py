@@ -1,0 +1,43 @@
+"""Input files: format from the extension, representation, content hash."""
+import hashlib
+import os
+
+from .errors import InputError
+
+MESH_FORMATS = {".stl": "stl", ".obj": "obj", ".ply": "ply"}
+BREP_FORMATS = {".igs": "iges", ".iges": "iges", ".step": "step", ".stp": "step", ".brep": "brep"}
+
+
+def sha256_file(path, chunk=1 << 20):
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(chunk), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def describe_file(path):
+    """Check that path is a readable, non-empty file of a known format.
+
+    Returns dict(path, sha256, format, representation, size_bytes).
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError("expected a file path, got %r" % (path,))
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError("input file not found: %s" % path)
+    if not os.path.isfile(path):
+        raise InputError("input is not a file: %s" % path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext in MESH_FORMATS:
+        fmt, rep = MESH_FORMATS[ext], "mesh"
+    elif ext in BREP_FORMATS:
+        fmt, rep = BREP_FORMATS[ext], "brep"
+    else:
+        known = ", ".join(sorted(set(MESH_FORMATS) | set(BREP_FORMATS)))
+        raise InputError("unknown input format '%s' for %s (known: %s)" % (ext or "no extension", path, known))
+    size = os.path.getsize(path)
+    if size == 0:
+        raise InputError("input file is empty: %s" % path)
+    return {"path": os.path.abspath(path), "sha256": sha256_file(path), "format": fmt,
+            "representation": rep, "size_bytes": size}

@@ -1,0 +1,42 @@
+#!/bin/bash
+# Install what HullProd needs on Debian 12 (run as root; safe to run again):
+# Debian's FreeCAD, numpy, scipy, matplotlib, pytest, Xvfb, Dask; trimesh from PyPI for
+# Debian's Python; and the workbench linked into FreeCAD's user Mod folders.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+PY=/usr/bin/python3
+DEB_PACKAGES="freecad python3-numpy python3-scipy python3-matplotlib python3-pytest python3-pip
+  python3-dask python3-distributed xvfb xauth"
+TRIMESH_SPEC="trimesh>=4.4,<5"
+
+sudo_() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
+
+missing=""
+for p in $DEB_PACKAGES; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
+done
+if [ -n "$missing" ]; then
+  echo "hullprod install: Debian packages:$missing" >&2
+  sudo_ apt-get update -qq
+  sudo_ env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing >/dev/null
+fi
+
+# trimesh for Debian's Python (FreeCAD's interpreter); --no-deps keeps Debian's numpy.
+if ! $PY -c "import trimesh" 2>/dev/null; then
+  echo "hullprod install: trimesh from PyPI for $PY" >&2
+  sudo_ $PY -m pip install -q --break-system-packages --no-deps "$TRIMESH_SPEC"
+fi
+
+# Make the workbench visible to FreeCAD 0.20 (~/.FreeCAD/Mod) and 0.21+ (~/.local/share/FreeCAD/Mod).
+for mod in "$HOME/.FreeCAD/Mod" "${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD/Mod"; do
+  mkdir -p "$mod"
+  ln -sfn "$here" "$mod/HullProd"
+done
+$PY - <<PYEOF
+import sys
+sys.path.append('/usr/lib/freecad-python3/lib')
+import FreeCAD, Part, numpy, scipy, trimesh
+print("hullprod install: FreeCAD %s, OCC %s, numpy %s, scipy %s, trimesh %s; workbench linked from $here"
+      % (".".join(FreeCAD.Version()[:3]), Part.OCC_VERSION, numpy.__version__, scipy.__version__,
+         trimesh.__version__), file=sys.stderr)
+PYEOF
