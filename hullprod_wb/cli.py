@@ -133,6 +133,12 @@ def main(argv=None):
     except KeyboardInterrupt:
         sys.stderr.write("hullprod: interrupted\n")
         return 130
+    except Exception as exc:  # an internal fault: one line, the traceback on request
+        if os.environ.get("HULLPROD_DEBUG"):
+            raise
+        sys.stderr.write("hullprod: internal error: %s: %s (set HULLPROD_DEBUG=1 for the traceback)\n"
+                         % (type(exc).__name__, " ".join(str(exc).split())))
+        return 1
 
 
 if __name__ == "__main__":
