@@ -1,0 +1,382 @@
+"""Batched evaluation of B-spline, Bezier and rational (NURBS) surfaces.
+
+A tensor-product surface of degrees (p, q) with flat knot vectors U, V, poles P_ij
+and weights w_ij is (eq:brep_surface)
+
+    S(u, v) = A(u, v) / w(u, v),   A = sum_ij N_ip(u) N_jq(v) w_ij P_ij,
+                                   w = sum_ij N_ip(u) N_jq(v) w_ij,
+
+with w_ij = 1 for a non-rational surface (then S = A). The basis functions and their
+first and second derivatives are computed for all points at once with the Cox-de Boor
+triangle and its derivative recurrence (algorithms A2.2/A2.3 of Piegl and Tiller,
+The NURBS Book), vectorised over the points; rational derivatives follow from the
+quotient rule applied to the homogeneous coordinates (A, w).
+
+Spans are located with ``np.searchsorted`` and clamped to the first and last non-empty
+span, so evaluation exactly at the end of the domain uses the last span (left limit)
+and interior knots are right-continuous. Periodic directions are evaluated on the
+un-periodised pole/knot arrays of a copy of the surface (``setUNotPeriodic`` keeps the
+parameterisation) after reducing parameters outside the base period into it.
+"""
+import math
+from dataclasses import dataclass, field
+from typing import Optional, Tuple
+
+import numpy as np
+
+from ..core.errors import InputError
+
+#: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
+CHUNK = 8192
+
+
+def _as_points(u, v):
+    """Broadcast parameters to two flat float arrays of equal length n."""
+    try:
+        uu, vv = np.broadcast_arrays(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
+    except ValueError as exc:
+        raise InputError("parameter arrays u and v have incompatible shapes: %s" % exc) from exc
+    return np.ascontiguousarray(uu).ravel(), np.ascontiguousarray(vv).ravel()
+
+
+def find_spans(knots, degree, x):
+    """Span index i with knots[i] <= x < knots[i+1] for every x, shape (n,) int.
+
+    Clamped to the first and last non-empty spans inside [knots[p], knots[n_poles]], so x
+    at (or beyond) the end of the domain falls in the last non-empty span.
+    """
+    n_poles = len(knots) - degree - 1
+    nonempty = np.nonzero(knots[degree:n_poles] < knots[degree + 1:n_poles + 1])[0] + degree
+    span = np.searchsorted(knots, x, side="right") - 1
+    return np.clip(span, nonempty[0], nonempty[-1])
+
+
+def basis_derivatives(knots, degree, span, x, order=2):
+    """Non-zero basis functions and derivatives, shape (order+1, degree+1, n).
+
+    ``out[k, r, m]`` is d^k/dx^k N_{span[m]-degree+r, degree}(x[m]) (NURBS book A2.2/A2.3,
+    vectorised over the points m); derivative orders above the degree are zero.
+    """
+    p = degree
+    n = x.shape[0]
+    ndu = np.empty((p + 1, p + 1, n))
+    left = np.empty((p + 1, n))
+    right = np.empty((p + 1, n))
+    ndu[0, 0] = 1.0
+    for j in range(1, p + 1):
+        left[j] = x - knots[span + 1 - j]
+        right[j] = knots[span + j] - x
+        saved = np.zeros(n)
+        for r in range(j):
+            ndu[j, r] = right[r + 1] + left[j - r]  # knot differences (lower triangle)
+            temp = ndu[r, j - 1] / ndu[j, r]
+            ndu[r, j] = saved + right[r + 1] * temp
+            saved = left[j - r] * temp
+        ndu[j, j] = saved
+    out = np.zeros((order + 1, p + 1, n))
+    out[0] = ndu[:, p]
+    top = min(order, p)
+    for r in range(p + 1):
+        a_prev = {0: 1.0}
+        for k in range(1, top + 1):
+            a_cur = {}
+            d = 0.0
+            rk, pk = r - k, p - k
+            if r >= k:
+                a_cur[0] = a_prev[0] / ndu[pk + 1, rk]
+                d = d + a_cur[0] * ndu[rk, pk]
+            j1 = 1 if rk >= -1 else -rk
+            j2 = k - 1 if r - 1 <= pk else p - r
+            for j in range(j1, j2 + 1):
+                a_cur[j] = (a_prev[j] - a_prev[j - 1]) / ndu[pk + 1, rk + j]
+                d = d + a_cur[j] * ndu[rk + j, pk]
+            if r <= pk:
+                a_cur[k] = -a_prev[k - 1] / ndu[pk + 1, r]
+                d = d + a_cur[k] * ndu[r, pk]
+            out[k, r] = d
+            a_prev = a_cur
+    for k in range(1, top + 1):
+        out[k] *= math.factorial(p) / math.factorial(p - k)
+    return out
+
+
+def knot_breaks(knots, mults, degree, lo, hi, period=None, min_continuity=None):
+    """Distinct knot values strictly inside (lo, hi) where a spline changes piece, (k,) float.
+
+    knots, mults: distinct knots of the domain [first, last] and their multiplicities
+    (as OCC lists them). min_continuity None: every knot (the spline is one polynomial or
+    rational piece between them). An integer c: only knots where it is less smooth than
+    C^c, i.e. multiplicity > degree - c. With a period the knots (first included, the seam)
+    repeat every period, so (lo, hi) may extend beyond the base period.
+    """
+    knots = np.asarray(knots, dtype=float)
+    mults = np.asarray(mults, dtype=int)
+    lo, hi = float(lo), float(hi)
+    if min_continuity is not None:
+        keep = mults > int(degree) - int(min_continuity)
+        knots = knots[keep] if period is None else knots[:-1][keep[:-1]]
+    elif period is not None:
+        knots = knots[:-1]
+    if period is not None and knots.size:
+        first = float(knots[0])
+        m0 = math.floor((lo - first) / period) - 1
+        m1 = math.ceil((hi - first) / period) + 1
+        knots = (knots[None, :] + period * np.arange(m0, m1 + 1)[:, None]).ravel()
+    knots = np.unique(knots)
+    return knots[(knots > lo) & (knots < hi)]
+
+
+def _distinct_with_mults(flat):
+    values, mults = np.unique(np.asarray(flat, dtype=float), return_counts=True)
+    return values, mults
+
+
+@dataclass(eq=False)
+class NurbsSurfaceData:
+    """Poles, weights and knots of a B-spline/Bezier surface, ready for batched evaluation.
+
+    udegree, vdegree : int                  degrees p, q
+    uknots, vknots   : (nu+p+1,), (nv+q+1,)  flat (non-periodic) knot vectors
+    poles            : (nu, nv, 3) float     Cartesian poles
+    weights          : (nu, nv) float or None (None: non-rational)
+    urange, vrange   : (first, last)         evaluation domain (base period if periodic)
+    uperiod, vperiod : float or None         period of a periodic direction
+    uknots_distinct, umults (and v)          distinct knots of the domain [first, last] with
+                                             their multiplicities (periodic: as OCC lists them)
+    """
+
+    udegree: int
+    vdegree: int
+    uknots: np.ndarray
+    vknots: np.ndarray
+    poles: np.ndarray
+    weights: Optional[np.ndarray] = None
+    urange: Tuple[float, float] = None
+    vrange: Tuple[float, float] = None
+    uperiod: Optional[float] = None
+    vperiod: Optional[float] = None
+    uknots_distinct: np.ndarray = None
+    umults: np.ndarray = None
+    vknots_distinct: np.ndarray = None
+    vmults: np.ndarray = None
+    _pw_t: np.ndarray = field(default=None, init=False, repr=False)  # (dim, nu*nv) homogeneous poles
+    _center: np.ndarray = field(default=None, init=False, repr=False)  # (3,) pole bounding-box centre
+
+    def __post_init__(self):
+        p, q = int(self.udegree), int(self.vdegree)
+        if p < 1 or q < 1:
+            raise InputError("NURBS surface degrees must be >= 1, got (%d, %d)" % (p, q))
+        self.udegree, self.vdegree = p, q
+        self.uknots = np.ascontiguousarray(self.uknots, dtype=float)
+        self.vknots = np.ascontiguousarray(self.vknots, dtype=float)
+        self.poles = np.ascontiguousarray(self.poles, dtype=float)
+        if self.poles.ndim != 3 or self.poles.shape[2] != 3:
+            raise InputError("NURBS poles must have shape (nu, nv, 3), got %s" % (self.poles.shape,))
+        nu, nv = self.poles.shape[:2]
+        if len(self.uknots) != nu + p + 1 or len(self.vknots) != nv + q + 1:
+            raise InputError(
+                "NURBS knot vectors have lengths (%d, %d); %d x %d poles of degrees (%d, %d) need (%d, %d)"
+                % (len(self.uknots), len(self.vknots), nu, nv, p, q, nu + p + 1, nv + q + 1))
+        if np.any(np.diff(self.uknots) < 0) or np.any(np.diff(self.vknots) < 0):
+            raise InputError("NURBS knot vectors must be non-decreasing")
+        if self.weights is not None:
+            self.weights = np.ascontiguousarray(self.weights, dtype=float)
+            if self.weights.shape != (nu, nv):
+                raise InputError("NURBS weights must have shape %s, got %s" % ((nu, nv), self.weights.shape))
+            if not np.all(self.weights > 0):
+                raise InputError("NURBS weights must be positive")
+        if self.urange is None:
+            self.urange = (float(self.uknots[p]), float(self.uknots[nu]))
+        if self.vrange is None:
+            self.vrange = (float(self.vknots[q]), float(self.vknots[nv]))
+        if self.uknots_distinct is None:
+            self.uknots_distinct, self.umults = _distinct_with_mults(self.uknots[p:nu + 1])
+        if self.vknots_distinct is None:
+            self.vknots_distinct, self.vmults = _distinct_with_mults(self.vknots[q:nv + 1])
+        self.uknots_distinct = np.asarray(self.uknots_distinct, dtype=float)
+        self.vknots_distinct = np.asarray(self.vknots_distinct, dtype=float)
+        self.umults = np.asarray(self.umults, dtype=int)
+        self.vmults = np.asarray(self.vmults, dtype=int)
+        # poles relative to their bounding-box centre: derivatives are translation-invariant,
+        # and small coordinates lose fewer digits in sum_i N_i^(k) P_i (sum_i N_i^(k) = 0, k > 0)
+        self._center = 0.5 * (self.poles.reshape(-1, 3).min(axis=0) + self.poles.reshape(-1, 3).max(axis=0))
+        local = self.poles - self._center
+        if self.weights is None:
+            pw = local
+        else:
+            pw = np.concatenate([local * self.weights[..., None], self.weights[..., None]], axis=2)
+        self._pw_t = np.ascontiguousarray(pw.reshape(nu * nv, pw.shape[2]).T)  # (dim, nu*nv)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_surface(cls, surface):
+        """Extract the data of a Part.BSplineSurface or Part.BezierSurface (not modified)."""
+        name = type(surface).__name__
+        if name == "BezierSurface":
+            return cls._from_bezier(surface)
+        if name == "BSplineSurface":
+            return cls._from_bspline(surface)
+        raise InputError("expected a Part.BSplineSurface or Part.BezierSurface, got %s" % name)
+
+    @staticmethod
+    def _poles_weights(surface):
+        poles = np.array([[(pt.x, pt.y, pt.z) for pt in row] for row in surface.getPoles()], dtype=float)
+        weights = None
+        if surface.isURational() or surface.isVRational():
+            weights = np.array(surface.getWeights(), dtype=float)
+        return poles, weights
+
+    @classmethod
+    def _from_bezier(cls, surface):
+        p, q = surface.UDegree, surface.VDegree
+        poles, weights = cls._poles_weights(surface)
+        return cls(p, q, [0.0] * (p + 1) + [1.0] * (p + 1), [0.0] * (q + 1) + [1.0] * (q + 1),
+                   poles, weights)
+
+    @classmethod
+    def _from_bspline(cls, surface):
+        u0, u1, v0, v1 = surface.bounds()
+        uper, vper = surface.isUPeriodic(), surface.isVPeriodic()
+        uknots_d = np.array(surface.getUKnots(), dtype=float)
+        vknots_d = np.array(surface.getVKnots(), dtype=float)
+        umults = np.array(surface.getUMultiplicities(), dtype=int)
+        vmults = np.array(surface.getVMultiplicities(), dtype=int)
+        work = surface
+        if uper or vper:
+            work = surface.copy()  # never modify the caller's geometry
+            if uper:
+                work.setUNotPeriodic()
+            if vper:
+                work.setVNotPeriodic()
+        poles, weights = cls._poles_weights(work)
+        flat_u = np.repeat(np.array(work.getUKnots(), dtype=float), work.getUMultiplicities())
+        flat_v = np.repeat(np.array(work.getVKnots(), dtype=float), work.getVMultiplicities())
+        # the domain of the un-periodised copy is its FirstKnotIndex..LastKnotIndex knots
+        return cls(work.UDegree, work.VDegree, flat_u, flat_v, poles, weights,
+                   urange=(float(u0), float(u1)), vrange=(float(v0), float(v1)),
+                   uperiod=float(u1 - u0) if uper else None, vperiod=float(v1 - v0) if vper else None,
+                   uknots_distinct=uknots_d, umults=umults, vknots_distinct=vknots_d, vmults=vmults)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def rational(self):
+        return self.weights is not None
+
+    @property
+    def shape(self):
+        """(nu, nv): number of poles in u and v."""
+        return self.poles.shape[:2]
+
+    def interior_knots(self, direction):
+        """Distinct interior knots of the domain and their multiplicities, ((k,), (k,) int).
+
+        direction: 'u' or 'v'. Periodic directions also list the seam (first knot), which is
+        a knot line of the closed surface.
+        """
+        knots, mults, period = self._dir(direction)[:3]
+        if period is not None:
+            return knots[:-1].copy(), mults[:-1].copy()
+        return knots[1:-1].copy(), mults[1:-1].copy()
+
+    def _dir(self, direction):
+        if direction == "u":
+            return self.uknots_distinct, self.umults, self.uperiod, self.udegree, self.urange
+        if direction == "v":
+            return self.vknots_distinct, self.vmults, self.vperiod, self.vdegree, self.vrange
+        raise InputError("direction must be 'u' or 'v', got %r" % (direction,))
+
+    def breaks(self, direction, lo=None, hi=None, min_continuity=None):
+        """Knot lines strictly inside (lo, hi) (default: the domain), sorted, (k,) float.
+
+        See :func:`knot_breaks` for ``min_continuity`` and periodic repetition.
+        """
+        knots, mults, period, degree, (first, last) = self._dir(direction)
+        return knot_breaks(knots, mults, degree, first if lo is None else lo, last if hi is None else hi,
+                           period=period, min_continuity=min_continuity)
+
+    # ------------------------------------------------------------------ evaluation
+    def _wrap(self, x, period, rng):
+        """Reduce periodic parameters outside [first, last] into the base period."""
+        if period is None:
+            return x
+        first, last = rng
+        out = (x < first) | (x > last)
+        if np.any(out):
+            x = x.copy()
+            x[out] = first + np.mod(x[out] - first, period)
+        return x
+
+    def points(self, u, v):
+        """Surface points S(u, v), (n, 3) float."""
+        return self.evaluate(u, v, order=0)[0]
+
+    def derivatives(self, u, v):
+        """(S, Su, Sv, Suu, Suv, Svv) at (u, v), each (n, 3) float."""
+        return self.evaluate(u, v, order=2)
+
+    def evaluate(self, u, v, order=2):
+        """S and partial derivatives up to total order ``order`` (0, 1 or 2).
+
+        Returns (S,), (S, Su, Sv) or (S, Su, Sv, Suu, Suv, Svv), each (n, 3) float.
+        """
+        if order not in (0, 1, 2):
+            raise InputError("derivative order must be 0, 1 or 2, got %r" % (order,))
+        u, v = _as_points(u, v)
+        u = self._wrap(u, self.uperiod, self.urange)
+        v = self._wrap(v, self.vperiod, self.vrange)
+        n = u.shape[0]
+        nout = (1, 3, 6)[order]
+        out = [np.empty((n, 3)) for _ in range(nout)]
+        for s in range(0, n, CHUNK):
+            e = min(n, s + CHUNK)
+            block = self._evaluate_block(u[s:e], v[s:e], order)
+            for o, b in zip(out, block):
+                o[s:e] = b
+        out[0] += self._center
+        return tuple(out)
+
+    def _evaluate_block(self, u, v, order):
+        """Derivatives for one block of points; arrays are laid out points-last, (dim, n)."""
+        p, q = self.udegree, self.vdegree
+        nv = self.poles.shape[1]
+        su = find_spans(self.uknots, p, u)
+        sv = find_spans(self.vknots, q, v)
+        bu = basis_derivatives(self.uknots, p, su, u, order)  # (order+1, p+1, n)
+        bv = basis_derivatives(self.vknots, q, sv, v, order)  # (order+1, q+1, n)
+        base = (su - p) * nv + (sv - q)
+        offs = np.arange(p + 1)[:, None] * nv + np.arange(q + 1)[None, :]
+        ctrl = np.take(self._pw_t, offs[:, :, None] + base[None, None, :], axis=1)  # (dim, p+1, q+1, n)
+        # contract v first: T[l, :, a] = sum_b d^l N_b(v) Pw[a, b]   -> (order+1, dim, p+1, n)
+        tv = np.einsum("lbn,dabn->ldan", bv, ctrl)
+
+        def comb(k, l):
+            return np.einsum("an,dan->dn", bu[k], tv[l])
+
+        pairs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))[:(1, 3, 6)[order]]
+        hom = [comb(k, l) for k, l in pairs]
+        if self.weights is not None:
+            hom = rational_quotient(hom)
+        return [h.T for h in hom]
+
+
+def rational_quotient(hom):
+    """Cartesian derivatives of S = A / w from homogeneous ones (quotient rule).
+
+    hom: list of (4, n) arrays [Aw, Aw_u, Aw_v, Aw_uu, Aw_uv, Aw_vv] (first 1, 3 or 6),
+    row 3 holding w and its derivatives. Returns as many (3, n) arrays:
+    S = A/w, S_u = (A_u - w_u S)/w, S_uu = (A_uu - 2 w_u S_u - w_uu S)/w,
+    S_uv = (A_uv - w_u S_v - w_v S_u - w_uv S)/w (and symmetrically in v).
+    """
+    inv_w = 1.0 / hom[0][3]
+    s = hom[0][:3] * inv_w
+    if len(hom) == 1:
+        return [s]
+    w_u, w_v = hom[1][3], hom[2][3]
+    s_u = (hom[1][:3] - w_u * s) * inv_w
+    s_v = (hom[2][:3] - w_v * s) * inv_w
+    if len(hom) == 3:
+        return [s, s_u, s_v]
+    s_uu = (hom[3][:3] - 2.0 * w_u * s_u - hom[3][3] * s) * inv_w
+    s_uv = (hom[4][:3] - w_u * s_v - w_v * s_u - hom[4][3] * s) * inv_w
+    s_vv = (hom[5][:3] - 2.0 * w_v * s_v - hom[5][3] * s) * inv_w
+    return [s, s_u, s_v, s_uu, s_uv, s_vv]
