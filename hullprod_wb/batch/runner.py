@@ -1,0 +1,170 @@
+"""Where cases run: in this process, in a local process pool, or on a Dask cluster.
+
+Each runner is a generator ``run(cases) -> records`` yielding one record per case (see
+worker.run_case) in completion order. All three call the same worker.run_case, so a case
+gives the same numbers wherever it runs.
+
+Local pool: concurrent.futures.ProcessPoolExecutor with the 'spawn' start method by
+default (a fresh interpreter per worker; 'forkserver' and 'fork' also work with FreeCAD
+on Linux, 'fork' being unsafe once threads are running). At most 2 x workers cases are in
+flight; a worker that dies (a crash in the geometry kernel) breaks the pool, and the
+cases then in flight are rerun one at a time in a fresh single-worker pool, so the
+culprit is recorded as an error and the others complete.
+
+Dask: dask.distributed.Client(address); cases are submitted as run_case tasks with the
+input file's bytes scattered alongside, so workers need not share a file system.
+"""
+import collections
+import multiprocessing
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+
+from ..core.errors import InputError
+from .worker import crash_record, run_case, worker_init
+
+START_METHODS = ("spawn", "forkserver", "fork")
+
+CRASH_MESSAGE = ("the worker process died while assessing this case (a crash in the geometry "
+                 "kernel or out of memory); it was isolated by rerunning it alone")
+
+
+def default_workers():
+    """Number of local worker processes by default: os.cpu_count()."""
+    return os.cpu_count() or 1
+
+
+def run_serial(cases, settings, settings_hash):
+    """Run cases one after another in this process."""
+    for case in cases:
+        yield run_case(case, settings, settings_hash)
+
+
+def _pool(workers, start_method):
+    return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(start_method),
+                               initializer=worker_init)
+
+
+def _run_alone(case, settings, settings_hash, start_method):
+    """Run one case in its own single-worker pool; a crash becomes an error record."""
+    pool = _pool(1, start_method)
+    try:
+        return pool.submit(run_case, case, settings, settings_hash).result()
+    except BrokenProcessPool:
+        return crash_record(case, settings, settings_hash, CRASH_MESSAGE)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def run_local(cases, settings, settings_hash, workers=None, start_method="spawn"):
+    """Run cases in a pool of `workers` processes (default os.cpu_count())."""
+    workers = default_workers() if workers is None else int(workers)
+    if workers < 1:
+        raise InputError("--workers must be at least 1, got %d" % workers)
+    if start_method not in START_METHODS:
+        raise InputError("start method must be one of %s, got %r" % (", ".join(START_METHODS), start_method))
+    pending = collections.deque(cases)
+    suspects = collections.deque()
+    while pending or suspects:
+        while suspects:
+            yield _run_alone(suspects.popleft(), settings, settings_hash, start_method)
+        if not pending:
+            break
+        pool = _pool(min(workers, len(pending)), start_method)
+        inflight = {}
+        try:
+            while pending or inflight:
+                while pending and len(inflight) < 2 * workers:
+                    case = pending.popleft()
+                    inflight[pool.submit(run_case, case, settings, settings_hash)] = case
+                done, _ = wait(inflight, return_when=FIRST_COMPLETED)
+                broken = False
+                for fut in done:
+                    try:
+                        record = fut.result()
+                    except BrokenProcessPool:
+                        broken = True
+                        continue
+                    del inflight[fut]
+                    yield record
+                if broken:
+                    for fut, case in list(inflight.items()):
+                        if fut.done() and not fut.cancelled() and fut.exception() is None:
+                            yield fut.result()
+                        else:
+                            suspects.append(case)
+                    inflight.clear()
+                    break
+        finally:
+            for fut in inflight:
+                fut.cancel()
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def connect(address, timeout=30):
+    """dask.distributed.Client connected to the scheduler at address, with at least one worker."""
+    try:
+        from dask.distributed import Client
+    except ImportError as exc:
+        raise InputError("--scheduler needs dask.distributed (Debian: python3-distributed): %s" % exc) from None
+    try:
+        client = Client(address, timeout=timeout)
+    except (OSError, TimeoutError) as exc:
+        raise InputError("cannot reach the Dask scheduler at %s: %s" % (address, exc)) from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except (TimeoutError, OSError) as exc:
+        client.close()
+        raise InputError("the Dask scheduler at %s has no worker (%s)" % (address, exc)) from None
+    return client
+
+
+def _payload(case):
+    with open(case.path, "rb") as fh:
+        return fh.read()
+
+
+def run_dask(cases, settings, settings_hash, scheduler):
+    """Run cases on a Dask cluster: scheduler is an address ('tcp://host:8786') or a Client.
+
+    The input bytes of each file are scattered once (documents once for all their
+    variants); at most 2 x (worker threads) cases are in flight.
+    """
+    from dask.distributed import as_completed
+    own = isinstance(scheduler, str)
+    client = connect(scheduler) if own else scheduler
+    try:
+        slots = 2 * max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
+        pending = collections.deque(cases)
+        remaining = collections.Counter(c.path for c in cases)
+        scattered = {}
+        ac = as_completed()
+        inflight = {}
+
+        def submit():
+            case = pending.popleft()
+            if case.path not in scattered:
+                scattered[case.path] = client.scatter(_payload(case), hash=False)
+            fut = client.submit(run_case, case, settings, settings_hash, scattered[case.path], pure=False,
+                                key="hullprod-%s-%s" % (case.case_id, os.urandom(4).hex()))
+            inflight[fut.key] = case
+            ac.add(fut)
+
+        while pending and len(inflight) < slots:
+            submit()
+        for fut in ac:
+            case = inflight.pop(fut.key)
+            try:
+                record = fut.result()
+            except Exception as exc:  # the task itself failed: e.g. KilledWorker after repeated crashes
+                record = crash_record(case, settings, settings_hash, "%s: %s" % (type(exc).__name__, exc))
+            fut.release()
+            remaining[case.path] -= 1
+            if remaining[case.path] == 0:
+                scattered.pop(case.path).release()
+            yield record
+            if pending:
+                submit()
+    finally:
+        if own:
+            client.close()

@@ -1,0 +1,121 @@
+"""What a worker does with one case: assess it and return a plain, picklable record.
+
+run_case is a top-level function so that a process pool and a Dask cluster can both call
+it by reference (workers import hullprod_wb). Every failure of a case becomes an error
+record; nothing a case does can stop the batch.
+"""
+import os
+import platform
+import shutil
+import tempfile
+import threading
+import time
+import traceback
+
+from .cases import Case
+from .table import make_row
+
+#: FreeCAD documents and OpenCascade are not thread-safe: a worker process with several
+#: threads (a Dask worker started with --nthreads > 1) runs its cases one at a time.
+_CASE_LOCK = threading.Lock()
+
+
+def worker_init():
+    """Process-pool initializer: load FreeCAD once per worker (absent FreeCAD is not an error)."""
+    from ..freecad_env import FreeCADUnavailable, import_freecad
+    try:
+        import_freecad()
+    except FreeCADUnavailable:
+        pass
+
+
+def _assess_options(settings):
+    opts = {k: settings[k] for k in ("order", "rtol", "max_depth") if settings.get(k) is not None}
+    return dict(lref=settings.get("lref"), h_f=settings["h_f"], k_f=settings["k_f"],
+                backend=settings.get("backend"), faces=settings.get("faces"), with_fields=False, **opts)
+
+
+def _replace_strings(obj, old, new):
+    """obj with every occurrence of the text old replaced by new in its strings (recursively)."""
+    if isinstance(obj, str):
+        return obj.replace(old, new)
+    if isinstance(obj, dict):
+        return {k: _replace_strings(v, old, new) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_replace_strings(v, old, new) for v in obj]
+    return obj
+
+
+def _local_copy(case, payload, tmpdir):
+    """Path at which this worker reads the case input.
+
+    The original path when it exists here with the expected content; otherwise payload
+    (the file's bytes, shipped by the client) written under the same file name in tmpdir.
+    """
+    from ..core.inputs import sha256_file
+    if os.path.isfile(case.path) and (payload is None or sha256_file(case.path) == case.sha256):
+        return case.path
+    if payload is None:
+        raise FileNotFoundError("input %s is not readable on worker %s and was not shipped"
+                                % (case.path, platform.node()))
+    path = os.path.join(tmpdir, os.path.basename(case.path))
+    with open(path, "wb") as fh:
+        fh.write(payload)
+    return path
+
+
+def _assess_case(case, settings, path):
+    """(assessment document, assessed object name) of a case read from path."""
+    from ..api import assess
+    opts = _assess_options(settings)
+    if case.kind == "file":
+        return assess(path, **opts).to_dict(), None
+    from .parametric import variant_object
+    with variant_object(path, case.params, settings.get("object")) as obj:
+        source = obj if hasattr(obj, "Shape") else obj.Mesh
+        return assess(source, **opts).to_dict(), obj.Name
+
+
+def run_case(case, settings, settings_hash, payload=None):
+    """Assess one case; return its record (dict).
+
+    case: Case or its dict; settings: the batch settings (cases.make_settings);
+    payload: the input file's bytes when the worker may not see the path (Dask).
+    Record keys: case, settings, settings_hash, status ('ok' | 'error'), error (None or
+    {type, message, traceback}), row (table row), assessment (JSON document or None),
+    runtime_s, worker, finished_at.
+    """
+    if isinstance(case, dict):
+        case = Case.from_dict(case)
+    t0 = time.perf_counter()
+    doc, error, obj_name = None, None, None
+    tmpdir = tempfile.mkdtemp(prefix="hullprod-batch-")
+    try:
+        with _CASE_LOCK:
+            path = _local_copy(case, payload, tmpdir)
+            doc, obj_name = _assess_case(case, settings, path)
+            if path != case.path:  # report the input under its own path, not the worker's copy
+                doc = _replace_strings(doc, path, case.path)
+    except Exception as exc:  # a failing case is recorded, never raised
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        if payload is not None:
+            message = message.replace(tmpdir + os.sep, os.path.dirname(case.path) + os.sep)
+        error = {"type": type(exc).__name__, "message": message, "traceback": traceback.format_exc()}
+    finally:
+        shutil.rmtree(tmpdir, ignore_errors=True)
+    runtime = time.perf_counter() - t0
+    err_text = None if error is None else "%s: %s" % (error["type"], error["message"])
+    row = make_row(case, settings_hash, doc, err_text, runtime, obj_name)
+    return {"case": case.to_dict(), "settings": settings, "settings_hash": settings_hash,
+            "status": row["status"], "error": error, "row": row, "assessment": doc,
+            "runtime_s": runtime, "worker": "%s:%d" % (platform.node(), os.getpid()),
+            "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+
+
+def crash_record(case, settings, settings_hash, message):
+    """Error record of a case whose worker process died (it cannot report itself)."""
+    error = {"type": "WorkerCrash", "message": message, "traceback": None}
+    row = make_row(case, settings_hash, None, "WorkerCrash: " + message, None, None)
+    return {"case": case.to_dict(), "settings": settings, "settings_hash": settings_hash, "status": "error",
+            "error": error, "row": row, "assessment": None, "runtime_s": None, "worker": None,
+            "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
