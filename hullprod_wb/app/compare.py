@@ -1,0 +1,74 @@
+"""Side-by-side comparison of analyses, with the reasons two signatures are not like for like.
+
+The signature is dimensionless only under a stated L_ref convention and thresholds, and
+the two realizations (BRep, mesh) are different estimators (paper section 4): comparisons
+across either are flagged, not forbidden.
+"""
+import math
+
+from ..core.constants import METRICS
+from ..core.errors import InputError
+from .analysis import is_analysis, result_document, signature_of
+
+#: L_ref / automatic-span ratios differing by more than this fraction mean different
+#: length conventions (e.g. L_pp against overall length: typically 3 % or more).
+LREF_CONVENTION_TOL = 0.02
+
+
+def _ratio(obj):
+    if obj.LrefAutomatic > 0 and not math.isnan(obj.LrefAutomatic):
+        return obj.LrefUsed / obj.LrefAutomatic
+    return float("nan")
+
+
+def comparison_flags(objs):
+    """Plain-language reasons the analyses are not like for like ([] when they are)."""
+    flags = []
+
+    def differs(getter, text):
+        vals = {o.Label: getter(o) for o in objs}
+        if len(set(vals.values())) > 1:
+            flags.append(text + ": " + ", ".join("%s %s" % (k, v) for k, v in vals.items()))
+
+    differs(lambda o: o.Representation, "different representations (BRep and mesh are different estimators)")
+    differs(lambda o: o.LrefUsedMode, "different L_ref modes")
+    differs(lambda o: "h_f=%g k_f=%g" % (o.Hf, o.Kf), "different class thresholds")
+    differs(lambda o: o.Units or "?", "different length units")
+    ratios = {o.Label: _ratio(o) for o in objs}
+    finite = [r for r in ratios.values() if not math.isnan(r)]
+    if finite and (max(finite) - min(finite)) > LREF_CONVENTION_TOL * max(finite):
+        flags.append("different L_ref conventions (L_ref / principal-axis span: %s)"
+                     % ", ".join("%s %.3f" % (k, v) for k, v in ratios.items()))
+    brep = [o for o in objs if o.Representation == "brep"]
+    if len(brep) > 1:
+        differs_q = {(o.QuadratureOrder, o.QuadratureRtol, o.QuadratureMaxDepth) for o in brep}
+        if len(differs_q) > 1:
+            flags.append("different BRep quadrature settings (order, rtol, max depth)")
+    for o in objs:
+        try:
+            count = result_document(o).get("input", {}).get("face_count")
+        except InputError:
+            count = None
+        if count and o.FacesUsed and len(o.FacesUsed) < count:
+            flags.append("%s assesses only faces %s of %d" % (o.Label, ",".join(map(str, o.FacesUsed)), count))
+        if o.Status != "ok":
+            flags.append("%s is not up to date (%s)" % (o.Label, o.Status))
+    return flags
+
+
+def compare_analyses(objs):
+    """dict(labels, metrics, values {metric: [value or None]}, statuses, context, flags)."""
+    objs = list(objs)
+    if len(objs) < 2 or not all(is_analysis(o) for o in objs):
+        raise InputError("select two or more HullProd analyses to compare")
+    sigs = [signature_of(o) for o in objs]
+    return {
+        "labels": [o.Label for o in objs],
+        "metrics": list(METRICS),
+        "values": {m: [s[m]["value"] for s in sigs] for m in METRICS},
+        "statuses": {m: [s[m]["status"] for s in sigs] for m in METRICS},
+        "context": [{"representation": o.Representation, "L_ref": o.LrefUsed, "L_ref mode": o.LrefUsedMode,
+                     "h_f": o.Hf, "k_f": o.Kf, "units": o.Units,
+                     "faces": ",".join(map(str, o.FacesUsed)) or "all"} for o in objs],
+        "flags": comparison_flags(objs),
+    }

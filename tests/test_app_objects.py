@@ -1,0 +1,417 @@
+"""App-side objects headless: the HullProdAnalysis feature, make_analysis, recompute on
+source change, save/reload, export, probe, compare, selection parsing, preferences,
+package metadata, and the App/GUI split (no non-GUI module imports FreeCADGui or Qt)."""
+import csv
+import hashlib
+import json
+import math
+import os
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, needs_freecad, shared_hull
+
+pytestmark = needs_freecad
+
+# Scale invariance of the signature under explicit L_ref: K scales as 1/s^2, so with a
+# fixed L_ref, I_D of the hull scaled by s is I_D / s^2. The quadrature sees the same
+# parametric integrand times a constant, so only round-off differs: 1e-9 relative.
+SCALE_RTOL = 1e-9
+
+
+@pytest.fixture(scope="module")
+def fc():
+    from hullprod_wb.freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    import Mesh  # noqa: F401
+    return FreeCAD
+
+
+@pytest.fixture
+def doc(fc):
+    d = fc.newDocument("HullProdTest")
+    name = d.Name
+    yield d
+    if name in fc.listDocuments():
+        fc.closeDocument(name)
+
+
+def wigley_feature(doc, name="HalfWigley", L=None):
+    from hullprod_wb.examples.builtin import WIGLEY_B, WIGLEY_L, WIGLEY_T, half_wigley_shape
+    s = 1.0 if L is None else L / WIGLEY_L
+    obj = doc.addObject("Part::Feature", name)
+    obj.Shape = half_wigley_shape(WIGLEY_L * s, WIGLEY_B * s, WIGLEY_T * s)
+    doc.recompute()
+    return obj
+
+
+def mesh_feature(doc, V, F, name="Mesh"):
+    import Mesh
+    obj = doc.addObject("Mesh::Feature", name)
+    obj.Mesh = Mesh.Mesh(np.asarray(V)[np.asarray(F)].tolist())
+    doc.recompute()
+    return obj
+
+
+def fingerprint(obj):
+    """Everything about the source that an analysis must never change."""
+    if hasattr(obj, "Shape"):
+        geo = obj.Shape.exportBrepToString()
+        extra = (obj.Shape.Area, obj.Shape.Volume, obj.Shape.hashCode())
+    else:
+        pts, tri = obj.Mesh.Topology
+        geo = repr((np.asarray(pts).round(15).tolist(), tri))
+        extra = (obj.Mesh.Area, obj.Mesh.Volume, obj.Mesh.CountFacets)
+    return (hashlib.sha256(geo.encode()).hexdigest(), extra, str(obj.Placement), obj.Label)
+
+
+# -- App/GUI split -------------------------------------------------------------------------------
+def test_non_gui_modules_import_no_gui():
+    code = r"""
+import importlib, json, pkgutil, sys
+sys.path.insert(0, %r)
+from hullprod_wb.freecad_env import import_freecad
+FreeCAD = import_freecad()
+import hullprod_wb
+names, failed = [], {}
+for m in pkgutil.walk_packages(hullprod_wb.__path__, "hullprod_wb."):
+    if m.name == "hullprod_wb.gui" or m.name.startswith("hullprod_wb.gui."):
+        continue
+    try:
+        importlib.import_module(m.name)
+        names.append(m.name)
+    except Exception as exc:
+        failed[m.name] = "%%s: %%s" %% (type(exc).__name__, exc)
+gui = sorted(k for k in sys.modules if k == "FreeCADGui" or k.split(".")[0] in ("PySide", "PySide2", "PySide6", "pivy"))
+print(json.dumps({"modules": names, "failed": failed, "gui": gui, "GuiUp": bool(FreeCAD.GuiUp)}))
+""" % ROOT
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=240)
+    assert res.returncode == 0, res.stderr[-3000:]
+    out = json.loads(res.stdout.strip().splitlines()[-1])
+    assert "hullprod_wb.app.analysis" in out["modules"] and "hullprod_wb.app.probe" in out["modules"]
+    assert out["failed"] == {}, out["failed"]
+    assert out["gui"] == [], "non-GUI modules imported GUI modules: %s" % out["gui"]
+    assert out["GuiUp"] is False
+
+
+# -- creation, properties -----------------------------------------------------------------------
+def test_make_analysis_brep_properties(doc):
+    import hullprod_wb
+    from hullprod_wb.app import HullProdAnalysis, make_analysis, signature_of
+    from hullprod_wb.core.constants import METRICS
+    from hullprod_wb.core.validity import Status
+    src = wigley_feature(doc)
+    before = fingerprint(src)
+    a = make_analysis(src, lref=1.0)
+    assert a.TypeId == "App::FeaturePython" and isinstance(a.Proxy, HullProdAnalysis)
+    assert a.Source is src and list(a.Faces) == [] and a.FacesUsed == [1]
+    assert a.Status == "ok" and a.Representation == "brep"
+    assert (a.LrefMode, a.LrefExplicit, a.LrefUsed, a.LrefUsedMode) == ("explicit", 1.0, 1.0, "explicit")
+    assert a.TauH == pytest.approx(a.Hf / 1.0, rel=1e-15) and a.TauK == pytest.approx(a.Kf, rel=1e-15)
+    direct = hullprod_wb.assess(src, lref=1.0, h_f=a.Hf, k_f=a.Kf, order=a.QuadratureOrder,
+                                rtol=a.QuadratureRtol, max_depth=a.QuadratureMaxDepth)
+    doc_json = json.loads(a.ResultJSON)
+    labels = {s.value for s in Status}
+    sig = signature_of(a)
+    for m in METRICS:
+        rec = direct.validity[m]
+        assert getattr(a, m + "_Status") == rec.status.value in labels
+        assert getattr(a, m + "_Established") is rec.established
+        assert doc_json["validity"][m]["status"] == rec.status.value
+        if rec.value is None:
+            assert math.isnan(getattr(a, m)) and sig[m]["value"] is None
+        else:  # the same deterministic computation: identical to the last bits
+            assert getattr(a, m) == pytest.approx(rec.value, rel=1e-12)
+            assert doc_json["validity"][m]["value"] == pytest.approx(rec.value, rel=1e-12)
+    assert a.RepresentedArea == pytest.approx(direct.integrals.represented_area, rel=1e-12)
+    from hullprod_wb.app import analysis_fields
+    f = analysis_fields(a)
+    assert f is not None and f.points.shape[1] == 3 and len(f.triangles) > 10
+    assert len(f.extra["face_id"]) == len(f.points)
+    assert fingerprint(src) == before
+
+
+def test_make_analysis_uses_preferences(doc):
+    from hullprod_wb.app import make_analysis, preferences
+    src = wigley_feature(doc)
+    try:
+        preferences.set("DefaultHf", 3e-4)
+        preferences.set("DefaultKf", 2e-4)
+        a = make_analysis(src)
+        assert (a.Hf, a.Kf, a.LrefMode, a.LrefUsedMode) == (3e-4, 2e-4, "automatic", "automatic")
+        assert a.LrefUsed == pytest.approx(a.LrefAutomatic, rel=1e-15)
+        b = make_analysis(src, h_f=1e-3)
+        assert b.Hf == 1e-3 and b.Kf == 2e-4
+    finally:
+        preferences.reset()
+    assert preferences.get("DefaultHf") == 1e-4
+
+
+def test_recompute_after_source_change(doc):
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.examples.builtin import half_wigley_shape
+    src = wigley_feature(doc)
+    a = make_analysis(src, lref=1.0)
+    i_d, span = a.I_D, a.LrefAutomatic
+    assert a.I_D_Established and i_d > 0
+    src.Shape = half_wigley_shape(2.0, 0.2, 0.125)  # the same hull, twice as large
+    doc.recompute()
+    assert a.Status == "ok"
+    assert a.I_D == pytest.approx(i_d / 4.0, rel=SCALE_RTOL)
+    assert a.LrefAutomatic == pytest.approx(2.0 * span, rel=1e-6)  # span of resampled surface
+    a.LrefExplicit = 2.0  # a parameter change recomputes too; scaled L_ref restores I_D
+    doc.recompute()
+    assert a.I_D == pytest.approx(i_d, rel=SCALE_RTOL)
+    assert json.loads(a.ResultJSON)["reference_length"]["value"] == 2.0
+
+
+def test_source_never_modified_mesh(doc):
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.examples.analytic_meshes import icosphere_mesh
+    src = mesh_feature(doc, *icosphere_mesh(6, radius=2.0))
+    before = fingerprint(src)
+    a = make_analysis(src)
+    assert a.Representation == "mesh" and a.Status == "ok"
+    assert a.a_elliptic_Established and a.a_elliptic > 0.9  # a sphere is elliptic everywhere
+    assert fingerprint(src) == before
+
+
+def test_save_and_reload_round_trip(doc, fc, tmp_path):
+    from hullprod_wb.app import HullProdAnalysis, analysis_fields, make_analysis
+    from hullprod_wb.app.analysis import PROPERTIES
+    src = wigley_feature(doc)
+    a = make_analysis(src, lref=1.0, rtol=2e-4)
+    names = [p[1] for p in PROPERTIES if p[0] not in ("App::PropertyLink", "App::PropertyFileIncluded")]
+    values = {n: getattr(a, n) for n in names}
+    pts = analysis_fields(a).points.copy()
+    path = str(tmp_path / "analysis.FCStd")
+    doc.saveAs(path)
+    name, aname = doc.Name, a.Name
+    fc.closeDocument(name)
+    d2 = fc.openDocument(path)
+    try:
+        b = d2.getObject(aname)
+        assert isinstance(b.Proxy, HullProdAnalysis) and b.Proxy.Type == "HullProdAnalysis"
+        assert b.Source.Name == "HalfWigley"
+        for n in names:
+            v = getattr(b, n)
+            if isinstance(v, float) and math.isnan(v):
+                assert math.isnan(values[n]), n
+            else:  # outputs are restored from the JSON document with every digit
+                assert v == values[n], n
+                assert v == values[n], n
+        assert np.array_equal(analysis_fields(b).points, pts)
+        assert b.QuadratureRtol == 2e-4
+        assert "Touched" not in b.State  # reopening does not ask for a recompute
+        b.touch()
+        d2.recompute()  # the restored proxy recomputes
+        assert b.Status == "ok" and b.I_D == pytest.approx(values["I_D"], rel=1e-12)
+        state = b.Proxy.__getstate__()
+        assert b.Proxy.dumps() == state and json.loads(json.dumps(state))["Type"] == "HullProdAnalysis"
+    finally:
+        fc.closeDocument(d2.Name)
+
+
+# -- faces, errors, cancellation -------------------------------------------------------------------
+def test_faces_from_subelements():
+    from hullprod_wb.app.selection import faces_from_subelements
+    assert faces_from_subelements(["Face3", "Edge2", "Face1", "Face3"]) == [1, 3]
+    assert faces_from_subelements(["Edge1", "Vertex2"]) is None
+    assert faces_from_subelements([]) is None
+
+
+def test_selected_faces_only(doc):
+    import Part
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.selection import sources_from_selection
+    cyl = doc.addObject("Part::Feature", "Cylinder")
+    cyl.Shape = Part.makeCylinder(1.0, 3.0)
+    doc.recompute()
+    lateral = [i + 1 for i, f in enumerate(cyl.Shape.Faces) if "Cylinder" in type(f.Surface).__name__]
+    assert len(lateral) == 1
+    sel = sources_from_selection([(cyl, ["Face%d" % lateral[0]])])
+    assert sel == [(cyl, lateral)]
+    a = make_analysis(cyl, faces=sel[0][1], lref=3.0)
+    assert list(a.FacesUsed) == lateral and list(a.Faces) == lateral
+    assert a.RepresentedArea == pytest.approx(2 * math.pi * 1.0 * 3.0, rel=1e-6)  # lateral area only
+    assert a.a_single_Established and a.a_single == pytest.approx(1.0, abs=1e-9)  # singly curved
+    assert a.I_D_Established and a.I_D == pytest.approx(0.0, abs=1e-9)  # K = 0 on a cylinder
+
+
+def test_bad_input_leaves_no_object(doc):
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.selection import sources_from_selection
+    from hullprod_wb.core.errors import InputError
+    from hullprod_wb.examples.analytic_meshes import plane_mesh
+    src = wigley_feature(doc)
+    n = len(doc.Objects)
+    with pytest.raises(InputError, match="reference length"):
+        make_analysis(src, lref=-1.0)
+    with pytest.raises(InputError, match="out of range|does not exist"):
+        make_analysis(src, faces=[7])
+    mesh = mesh_feature(doc, *plane_mesh(4))
+    with pytest.raises(InputError, match="mesh"):
+        make_analysis(mesh, faces=[1])
+    with pytest.raises(InputError, match="document object"):
+        make_analysis("not an object")
+    assert len(doc.Objects) == n + 1  # only the mesh source was added
+    with pytest.raises(InputError, match="select"):
+        sources_from_selection([])
+
+
+def test_cancel_leaves_no_object(doc):
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.progress import RunProgress
+    from hullprod_wb.core.progress import Cancelled
+    src = wigley_feature(doc)
+    n = len(doc.Objects)
+    prog = RunProgress(use_indicator=False)
+    prog.cancel()
+    with pytest.raises(Cancelled):
+        make_analysis(src, progress=prog)
+    assert len(doc.Objects) == n
+    seen = []
+    make_analysis(src, progress=lambda f, msg: seen.append(f))
+    assert seen and min(seen) >= 0.0 and max(seen) <= 1.0
+
+
+# -- export, probe, compare -----------------------------------------------------------------------
+def test_export_analysis(doc, tmp_path):
+    from hullprod_wb.app import export_analysis, make_analysis, register_report_writer
+    from hullprod_wb.app import export as export_mod
+    from hullprod_wb.core.errors import InputError
+    src = wigley_feature(doc)
+    a = make_analysis(src, lref=1.0)
+    calls = []
+    register_report_writer("test_report", lambda obj, d, f, folder: calls.append(obj.Name) or
+                           os.path.join(folder, "report.txt"))
+    try:
+        paths = export_analysis(a, str(tmp_path / "out"))
+    finally:
+        export_mod.REPORT_WRITERS.pop("test_report")
+    assert calls == [a.Name] and set(paths) == {"json", "csv", "vtp", "fields_csv", "test_report"}
+    with open(paths["json"]) as fh:
+        assert json.load(fh) == json.loads(a.ResultJSON)
+    with open(paths["csv"]) as fh:
+        row = next(csv.DictReader(fh))
+    assert float(row["I_D"]) == pytest.approx(a.I_D, rel=1e-12) and row["I_D_status"] == a.I_D_Status
+    root = ET.parse(paths["vtp"]).getroot()
+    piece = root.find("PolyData/Piece")
+    from hullprod_wb.app import analysis_fields
+    assert int(piece.get("NumberOfPoints")) == len(analysis_fields(a).points)
+    with pytest.raises(InputError, match="not empty"):
+        export_analysis(a, str(tmp_path / "out"))
+    assert set(export_analysis(a, str(tmp_path / "out"), overwrite=True, formats=["json"])) == {"json"}
+
+
+def test_locate_triangle_and_interpolation():
+    from hullprod_wb.app.probe import interpolate_fields, locate_triangle
+    from hullprod_wb.core.fields import DistributedFields
+    P = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    T = np.array([[0, 1, 2], [0, 2, 3]])
+    idx, bary, dist = locate_triangle(P, T, (0.75, 0.25, 0.0))
+    assert idx == 0 and dist == pytest.approx(0.0, abs=1e-15)
+    assert bary == pytest.approx([0.25, 0.5, 0.25], abs=1e-12)
+    idx, bary, _ = locate_triangle(P, T, (0.2, 0.7, 0.0))
+    assert idx == 1
+    K = np.array([1.0, 2.0, 3.0, 4.0])
+    f = DistributedFields(P, T, K, 0.5 * np.sqrt(K) * 2, np.ones(4, bool), lref=2.0, tau_H=1e-4, tau_K=1e-4)
+    r = interpolate_fields(f, (0.75, 0.25, 0.0))
+    assert r["K"] == pytest.approx(0.25 * 1 + 0.5 * 2 + 0.25 * 3, rel=1e-12)
+    assert r["q_D"] == pytest.approx(r["K"] * 4.0, rel=1e-12) and r["class_id"] == 2 and r["exact"] is False
+
+
+def test_probe_mesh_and_brep(doc):
+    from hullprod_wb.app import analysis_fields, make_analysis, probe_analysis
+    from hullprod_wb.examples.analytic_meshes import icosphere_mesh
+    mesh = mesh_feature(doc, *icosphere_mesh(6, radius=2.0))
+    m = make_analysis(mesh)
+    f = analysis_fields(m)
+    tri = f.triangles[5]
+    c = f.points[tri].mean(axis=0)
+    r = probe_analysis(m, c)
+    assert r["exact"] is False and "interpolated" in r["method"]
+    assert r["K"] == pytest.approx(float(np.mean(f.K[tri])), rel=1e-9)  # barycentre: plain mean
+    assert r["class_name"] == "elliptic"
+    src = wigley_feature(doc)
+    a = make_analysis(src, lref=1.0)
+    # Exact Gaussian curvature of the Wigley surface y = B/2 f(x) g(z) at x = 0, z = -T/2:
+    # y_x = 0, y_xx = -4B/L^2 g, y_z = B/2 f g', y_zz = -B/T^2 f; K = y_xx y_zz / (1 + |grad y|^2)^2.
+    from hullprod_wb.examples.builtin import WIGLEY_B as B, WIGLEY_L as L, WIGLEY_T as T
+    z = -T / 2
+    g, gp = 1 - (z / T) ** 2, -2 * z / T ** 2
+    y = B / 2 * g
+    K_exact = (-4 * B / L ** 2 * g) * (-B / T ** 2) / (1 + (B / 2 * gp) ** 2) ** 2
+    r = probe_analysis(a, (0.0, y, z))
+    assert r["exact"] is True and r["face"] == 1 and "exact" in r["method"]
+    assert r["K"] == pytest.approx(K_exact, rel=1e-6)  # projection of an on-surface point: exact
+    assert r["q_D"] == pytest.approx(abs(K_exact), rel=1e-6) and r["class_name"] == "elliptic"
+
+
+def test_compare_flags(doc):
+    from hullprod_wb.app import compare_analyses, make_analysis
+    from hullprod_wb.core.errors import InputError
+    from hullprod_wb.examples.analytic_meshes import half_wigley_mesh
+    src = wigley_feature(doc)
+    a = make_analysis(src, lref=1.0)
+    b = make_analysis(src, lref=1.0)
+    same = compare_analyses([a, b])
+    assert same["flags"] == [] and same["values"]["I_D"][0] == same["values"]["I_D"][1]
+    mesh = mesh_feature(doc, *half_wigley_mesh(24, 8))
+    c = make_analysis(mesh, h_f=1e-3)
+    cmp = compare_analyses([a, c])
+    text = " ".join(cmp["flags"])
+    assert "different representations" in text and "different L_ref modes" in text
+    assert "different class thresholds" in text
+    with pytest.raises(InputError):
+        compare_analyses([a])
+
+
+def test_shared_mesh_hull(doc):
+    import Mesh
+    from hullprod_wb.app import make_analysis
+    path = shared_hull("mesh/wigley_full.stl")
+    src = doc.addObject("Mesh::Feature", "WigleyFull")
+    src.Mesh = Mesh.Mesh(path)
+    before = fingerprint(src)
+    a = make_analysis(src, lref=1.0)
+    assert a.Status == "ok" and a.Representation == "mesh" and a.LrefUsed == 1.0
+    assert all(getattr(a, m + "_Status") for m in ("I_D", "a_flat"))
+    assert fingerprint(src) == before
+
+
+# -- package metadata and icons ----------------------------------------------------------------
+def test_package_xml_for_addon_manager(fc):
+    meta = fc.Metadata(os.path.join(ROOT, "package.xml"))
+    assert meta.Name == "HullProd" and meta.Description
+    assert [int(x) for x in meta.Version.split(".")] >= [0, 1, 0]
+    assert any(lic["name"] == "MIT" for lic in meta.License)  # SPDX identifier
+    assert any(u["type"] == "repository" and u["location"].startswith("https://") for u in meta.Urls)
+    assert meta.Maintainer and meta.Maintainer[0]["name"]
+    assert meta.FreeCADMin.startswith("0.20")
+    deps = {d["package"] for d in meta.Depend}
+    assert {"numpy", "scipy", "trimesh"} <= deps
+    wb = meta.Content["workbench"][0]
+    assert wb.Classname == "HullProdWorkbench" and wb.Name == "HullProd"
+    assert os.path.isdir(os.path.join(ROOT, wb.Subdirectory))
+    with open(os.path.join(ROOT, wb.Subdirectory, "InitGui.py")) as fh:
+        assert "class %s(" % wb.Classname in fh.read()
+    for icon in (meta.Icon, wb.Icon):
+        assert os.path.isfile(os.path.join(ROOT, icon))
+    date = ET.parse(os.path.join(ROOT, "package.xml")).getroot().find("{https://wiki.freecad.org/Package_Metadata}date")
+    assert date is not None and len(date.text.split("-")) == 3
+
+
+def test_icons_small_valid_svg():
+    from hullprod_wb.gui.icons import ICON_DIR
+    names = {"HullProd", "HullProd_Analyze", "HullProd_ShowDevelopability", "HullProd_ShowClasses",
+             "HullProd_ShowSignedDevelopability", "HullProd_ShowPlates", "HullProd_ValidityPanel",
+             "HullProd_Probe", "HullProd_Compare", "HullProd_Export"}
+    for n in names:
+        path = os.path.join(ICON_DIR, n + ".svg")
+        assert os.path.getsize(path) < 10 * 1024, path
+        assert ET.parse(path).getroot().tag.endswith("svg")
