@@ -1,0 +1,70 @@
+"""Distributed fields on a display-only tessellation of BRep faces.
+
+The tessellation (OpenCascade's, with its (u, v) nodes) only carries the samples for
+display, export and the automatic reference length: H and K are evaluated exactly at its
+nodes and never enter the integrals (paper section 4.1).
+"""
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..core.fields import DistributedFields
+
+#: Default display deflection as a fraction of the shape's bounding-box diagonal.
+DISPLAY_DEFLECTION = 2e-3
+
+
+def face_display_mesh(face, deflection, field):
+    """(uv (n, 2), field values at uv, triangles (m, 3)) of OpenCascade's tessellation of face.
+
+    FreeCAD's tessellate() reorders and merges nodes; its triangles are mapped back to the
+    triangulation's (u, v) nodes by nearest 3-D position.
+    """
+    pts, tris = face.tessellate(deflection)
+    uv = np.asarray(face.getUVNodes(), dtype=float)
+    if len(pts) == 0 or len(uv) == 0:
+        return uv, None, np.zeros((0, 3), dtype=np.int64)
+    values = field(uv[:, 0], uv[:, 1])
+    P = np.array([[p.x, p.y, p.z] for p in pts])
+    _, index = cKDTree(values["points"]).query(P)
+    T = index[np.asarray(tris, dtype=np.int64)]
+    keep = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])
+    return uv, values, T[keep]
+
+
+def sample_faces(face_fields, deflection):
+    """Exact samples at the display nodes of every face.
+
+    face_fields: list of (face number, FaceField). Returns dict of concatenated arrays:
+    points (n, 3), triangles (m, 3), uv (n, 2), K, H, k1, k2 (n,), valid (n,) bool, face_id
+    (n,) int (1-based), and node_area (n,) barycentric areas of the display triangles.
+    """
+    parts = {k: [] for k in ("points", "triangles", "uv", "K", "H", "k1", "k2", "valid", "face_id")}
+    offset = 0
+    for number, ff in face_fields:
+        uv, f, T = face_display_mesh(ff.face, deflection, ff)
+        if f is None:
+            continue
+        parts["points"].append(f["points"])
+        parts["triangles"].append(T + offset)
+        parts["uv"].append(uv)
+        for k in ("K", "H", "k1", "k2"):
+            parts[k].append(f[k])
+        parts["valid"].append(f["regular"] & np.isfinite(f["K"]))
+        parts["face_id"].append(np.full(len(uv), number, dtype=np.int32))
+        offset += len(uv)
+    if not parts["points"]:
+        return None
+    out = {k: np.concatenate(v) for k, v in parts.items()}
+    P, T = out["points"], out["triangles"]
+    area = 0.5 * np.linalg.norm(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), axis=1)
+    out["node_area"] = np.bincount(T.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(P))
+    return out
+
+
+def display_fields(samples, lref, thresholds):
+    """DistributedFields (kind 'brep-display') from sample_faces() output."""
+    return DistributedFields(points=samples["points"], triangles=samples["triangles"], K=samples["K"],
+                             H=samples["H"], valid=samples["valid"], lref=lref, tau_H=thresholds.tau_H,
+                             tau_K=thresholds.tau_K, weights=None, kind="brep-display",
+                             extra={"face_id": samples["face_id"], "k1": samples["k1"],
+                                    "k2": samples["k2"]})

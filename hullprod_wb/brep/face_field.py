@@ -1,0 +1,29 @@
+"""The integrand field of one BRep face: (u, v) -> J, K, H, regular (paper eq:brephk,
+eq:brep_jacobian), evaluated in batches from the exact surface derivatives."""
+import numpy as np
+
+from .differential import surface_differentials
+from .surface_eval import SurfaceEvaluator
+
+
+class FaceField:
+    """Callable field of a Part.Face for the quadrature, counting evaluated points.
+
+    field(u, v) with u, v (n,) float returns dict(J, K, H, k1, k2, regular, points).
+    """
+
+    def __init__(self, face, evaluator=None):
+        self.face = face
+        self.evaluator = evaluator or SurfaceEvaluator.for_face(face)
+        self.kind = self.evaluator.kind
+        self.sign = self.evaluator.orientation_sign
+        self.points_evaluated = 0
+
+    def __call__(self, u, v):
+        u = np.asarray(u, dtype=float).ravel()
+        v = np.asarray(v, dtype=float).ravel()
+        self.points_evaluated += u.size
+        der = self.evaluator.derivatives(u, v)
+        d = surface_differentials(der, orientation_sign=self.sign)
+        return {"J": d.J, "K": d.K, "H": d.H, "k1": d.k1, "k2": d.k2, "regular": d.regular,
+                "points": der[0]}

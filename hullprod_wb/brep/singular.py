@@ -1,0 +1,246 @@
+"""Degenerate parameter points of a face, graded refinement toward them, and the
+nested-neighbourhood audit that tells a convergent improper integral (VALID*) from a
+non-integrable singularity (SINGULAR) (paper section 4.3 and the public-hull audit of
+section 6.2).
+
+A point is degenerate where the area element J = |S_u x S_v| vanishes relative to
+max(E, G) (a collapsed pole row, a pole, parallel tangents). Such points sit at patch
+corners and sides, so they are looked for on the knot grid and along the domain's sides.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .quadrature import integrate
+from .trimmed_domain import TrimmedDomain
+
+#: J / max(E, G) below this is degenerate.
+DEGENERATE_RTOL = 1e-8
+#: Samples per knot span along each side of the parameter rectangle.
+SIDE_SAMPLES = 8
+#: Graded break lines toward a degenerate point: r0 * 2^-k, k = 0..GRADING_LEVELS.
+GRADING_LEVELS = 36
+#: Nested neighbourhoods of the audit: r0 * 2^-k, k = 0..AUDIT_LEVELS-1.
+AUDIT_LEVELS = 6
+#: Fitted decay power of the excluded |K| integral above which the integral converges.
+CONVERGENT_POWER = 0.25
+#: Growth of max |K| over the audit neighbourhoods above which K is unbounded there.
+UNBOUNDED_GROWTH = 10.0
+
+
+#: A knot-grid node whose |K| J exceeds this multiple of the face's mean is a hot spot.
+HOT_SPOT_FACTOR = 100.0
+
+
+@dataclass
+class DegenerateSet:
+    """Degenerate points (u, v), collapsed sides ('u0', 'u1', 'v0', 'v1') and hot spots
+    (regular knot-grid nodes where |K| J peaks far above the face's mean: near-degenerate
+    corners) of a face. All get graded refinement; degenerate points are audited."""
+
+    points: list = field(default_factory=list)
+    sides: list = field(default_factory=list)
+    hot_spots: list = field(default_factory=list)
+
+    def __bool__(self):
+        return bool(self.points or self.sides or self.hot_spots)
+
+    @property
+    def graded_points(self):
+        return list(self.points) + list(self.hot_spots)
+
+    def to_dict(self):
+        return {"points": [[float(u), float(v)] for u, v in self.points], "collapsed_sides": list(self.sides),
+                "hot_spots": [[float(u), float(v)] for u, v in self.hot_spots]}
+
+
+def _grid_values(lo, hi, breaks):
+    b = np.asarray(breaks, dtype=float)
+    return np.unique(np.concatenate([[lo, hi], b[(b > lo) & (b < hi)]]))
+
+
+def find_degenerate(face_field, domain, u_breaks, v_breaks):
+    """DegenerateSet of a face: knot-grid corners and side samples where J vanishes."""
+    u0, u1 = domain.u_range
+    v0, v1 = domain.v_range
+    gu = _grid_values(u0, u1, u_breaks)
+    gv = _grid_values(v0, v1, v_breaks)
+
+    def degenerate_at(u, v):
+        S, Su, Sv, *_ = face_field.evaluator.derivatives(u, v)
+        J = np.linalg.norm(np.cross(Su, Sv), axis=1)
+        scale = np.maximum((Su * Su).sum(1), (Sv * Sv).sum(1))
+        return ~(J > DEGENERATE_RTOL * scale)
+
+    out = DegenerateSet()
+    # Sides: collapsed when every sample along the side is degenerate.
+    t = np.linspace(0.0, 1.0, SIDE_SAMPLES + 1)
+    su = np.unique(np.concatenate([a + (b - a) * t for a, b in zip(gu[:-1], gu[1:])]))
+    sv = np.unique(np.concatenate([a + (b - a) * t for a, b in zip(gv[:-1], gv[1:])]))
+    for name, (uu, vv) in {"v0": (su, np.full_like(su, v0)), "v1": (su, np.full_like(su, v1)),
+                           "u0": (np.full_like(sv, u0), sv), "u1": (np.full_like(sv, u1), sv)}.items():
+        if degenerate_at(uu, vv).all():
+            out.sides.append(name)
+    # Isolated points at knot-grid nodes not on a collapsed side.
+    U, V = np.meshgrid(gu, gv, indexing="ij")
+    U, V = U.ravel(), V.ravel()
+    bad = degenerate_at(U, V)
+    on_side = np.zeros_like(bad)
+    for name in out.sides:
+        on_side |= {"v0": V == v0, "v1": V == v1, "u0": U == u0, "u1": U == u1}[name]
+    inside = _inside_or_on(domain, U, V)
+    for u, v in zip(U[bad & ~on_side & inside], V[bad & ~on_side & inside]):
+        out.points.append((float(u), float(v)))
+    # Hot spots: regular nodes where the integrand |K| J towers over the face's mean.
+    ok = ~bad & ~on_side & inside
+    if ok.any():
+        g = (np.arange(16) + 0.5) / 16
+        mu, mv = np.meshgrid(u0 + (u1 - u0) * g, v0 + (v1 - v0) * g, indexing="ij")
+        fm = face_field(mu.ravel(), mv.ravel())
+        mean = np.nanmean(np.where(fm["regular"], np.abs(fm["K"]) * fm["J"], np.nan))
+        fn = face_field(U[ok], V[ok])
+        q = np.where(fn["regular"], np.abs(fn["K"]) * fn["J"], 0.0)
+        if np.isfinite(mean) and mean > 0:
+            for u, v in zip(U[ok][q > HOT_SPOT_FACTOR * mean], V[ok][q > HOT_SPOT_FACTOR * mean]):
+                out.hot_spots.append((float(u), float(v)))
+    return out
+
+
+def _inside_or_on(domain, U, V):
+    """Which (U, V) lie in the closed trimmed domain (rectangles: all)."""
+    U = np.asarray(U, dtype=float)
+    if getattr(domain, "is_rectangle", False):
+        return np.ones(U.shape, dtype=bool)
+    span = 1e-9 * (domain.v_range[1] - domain.v_range[0])
+    idx, lo, hi = domain.v_intervals(U)
+    hit = (V[idx] >= lo - span) & (V[idx] <= hi + span)
+    ok = np.zeros(U.shape, dtype=bool)
+    ok[idx[hit]] = True
+    return ok
+
+
+def grading_radius(x0, lo, hi, breaks):
+    """Half the distance from x0 to the nearest other break or end (the grading base r0)."""
+    cand = np.concatenate([[lo, hi], np.asarray(breaks, dtype=float)])
+    d = np.abs(cand - x0)
+    d = d[d > 1e-12 * max(1.0, hi - lo)]
+    return 0.5 * float(d.min()) if d.size else 0.5 * (hi - lo)
+
+
+def graded_breaks(deg, domain, u_breaks, v_breaks, levels=GRADING_LEVELS):
+    """Extra break lines r0 2^-k either side of each degenerate point / inside each collapsed side."""
+    (u0, u1), (v0, v1) = domain.u_range, domain.v_range
+    gu, gv = [], []
+    k = 2.0 ** -np.arange(levels + 1)
+    for (pu, pv) in deg.graded_points:
+        ru = grading_radius(pu, u0, u1, u_breaks)
+        rv = grading_radius(pv, v0, v1, v_breaks)
+        gu += list(pu - ru * k) + list(pu + ru * k)
+        gv += list(pv - rv * k) + list(pv + rv * k)
+    for side in deg.sides:
+        if side in ("v0", "v1"):
+            x = v0 if side == "v0" else v1
+            r = grading_radius(x, v0, v1, v_breaks)
+            gv += list(x + r * k) if side == "v0" else list(x - r * k)
+        else:
+            x = u0 if side == "u0" else u1
+            r = grading_radius(x, u0, u1, u_breaks)
+            gu += list(x + r * k) if side == "u0" else list(x - r * k)
+    gu = np.asarray(gu, dtype=float)
+    gv = np.asarray(gv, dtype=float)
+    gu = gu[(gu > u0) & (gu < u1)]
+    gv = gv[(gv > v0) & (gv < v1)]
+    return (np.unique(np.concatenate([np.asarray(u_breaks, float), gu])),
+            np.unique(np.concatenate([np.asarray(v_breaks, float), gv])))
+
+
+def audit_point(face_field, domain, point, u_breaks, v_breaks, totals, lref, tau_H, tau_K,
+                order=5, rtol=1e-6, max_depth=5, levels=AUDIT_LEVELS, graded=None):
+    """Nested-neighbourhood audit around a degenerate point (u0, v0).
+
+    For boxes B_k = [u0 -+ r_k] x [v0 -+ r_k] clipped to the domain, r_k = r0 2^-k, it
+    integrates the area A_k and E_k = int_{B_k} |K| dA (and K+, K-), samples max |K|, fits
+    E_k ~ r_k^p, and forms I_D, I_D+, I_D- of the complement. u_breaks, v_breaks: the
+    face's knot lines (they set r0); graded: the break lines used inside the boxes. Returns a dict of evidence
+    and a verdict: 'regular' (|K| bounded: parameterisation degeneracy), 'convergent'
+    (unbounded |K|, E_k -> 0 with p > CONVERGENT_POWER), 'divergent' (E_k does not decay),
+    'inconclusive', or 'not_audited' (the neighbourhood crosses a trim curve).
+    """
+    (u0, u1), (v0, v1) = domain.u_range, domain.v_range
+    pu, pv = point
+    ru = grading_radius(pu, u0, u1, u_breaks)
+    rv = grading_radius(pv, v0, v1, v_breaks)
+    if not getattr(domain, "is_rectangle", False):
+        return {"point": [pu, pv], "verdict": "not_audited",
+                "reason": "the neighbourhood of the point is bounded by trim curves"}
+    rows = []
+    for k in range(levels):
+        s = 2.0 ** -k
+        box = (max(u0, pu - ru * s), min(u1, pu + ru * s), max(v0, pv - rv * s), min(v1, pv + rv * s))
+        sub = TrimmedDomain.rectangle(*box)
+        ub, vb = (np.asarray(b, float) for b in (graded or (u_breaks, v_breaks)))
+        q = integrate(sub, face_field, tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth,
+                      u_breaks=ub[(ub > box[0]) & (ub < box[1])], v_breaks=vb[(vb > box[2]) & (vb < box[3])],
+                      recheck=False)
+        # max |K| on a small probe grid of the box interior
+        g = np.linspace(0.02, 0.98, 9)
+        U, V = np.meshgrid(box[0] + (box[1] - box[0]) * g, box[2] + (box[3] - box[2]) * g, indexing="ij")
+        f = face_field(U.ravel(), V.ravel())
+        Kmax = float(np.nanmax(np.abs(np.where(f["regular"], f["K"], np.nan)))) if f["regular"].any() else None
+        rows.append({"r_u": ru * s, "r_v": rv * s, "area": q.values["A"], "int_abs_K": q.values["int_abs_K"],
+                     "int_K_plus": q.values["int_K_plus"], "int_K_minus": q.values["int_K_minus"],
+                     "max_abs_K": Kmax, "converged": bool(q.converged["int_abs_K"])})
+    A, absK = totals["A_valid"], totals["int_abs_K"]
+    L2 = lref ** 2
+    for row in rows:
+        Ac = A - row["area"]
+        row["excluded_area_fraction"] = row["area"] / A if A > 0 else None
+        row["excluded_abs_K_fraction"] = row["int_abs_K"] / absK if absK > 0 else None
+        row["I_D_complement"] = L2 * (absK - row["int_abs_K"]) / Ac if Ac > 0 else None
+        row["I_D_plus_complement"] = L2 * (totals["int_K_plus"] - row["int_K_plus"]) / Ac if Ac > 0 else None
+        row["I_D_minus_complement"] = L2 * (totals["int_K_minus"] - row["int_K_minus"]) / Ac if Ac > 0 else None
+    r = np.array([row["r_u"] for row in rows])
+    E = np.array([row["int_abs_K"] for row in rows])
+    ok = E > 0
+    power = float(np.polyfit(np.log(r[ok]), np.log(E[ok]), 1)[0]) if ok.sum() >= 3 else None
+    kmax = [row["max_abs_K"] for row in rows if row["max_abs_K"] is not None]
+    growth = (kmax[-1] / kmax[0]) if len(kmax) >= 2 and kmax[0] > 0 else 1.0
+    changes = []
+    seq = [row["I_D_complement"] for row in rows if row["I_D_complement"] is not None]
+    for a, b in zip(seq[:-1], seq[1:]):
+        changes.append(abs(b - a) / abs(b) if b else 0.0)
+    if growth < UNBOUNDED_GROWTH:
+        verdict = "regular"
+    elif power is not None and power > CONVERGENT_POWER:
+        verdict = "convergent"
+    elif power is not None and power <= 0.0:
+        verdict = "divergent"
+    else:
+        verdict = "inconclusive"
+    return {"point": [pu, pv], "verdict": verdict, "decay_power": power, "max_abs_K_growth": growth,
+            "I_D_relative_changes": changes, "neighbourhoods": rows}
+
+
+def probe_side(face_field, domain, side, u_breaks, v_breaks, levels=12):
+    """Boundedness of |K| approaching a collapsed side: samples on lines r0 2^-k from it."""
+    (u0, u1), (v0, v1) = domain.u_range, domain.v_range
+    g = np.linspace(0.01, 0.99, 41)
+    kmax = []
+    for k in range(levels):
+        if side in ("v0", "v1"):
+            x = v0 if side == "v0" else v1
+            r = grading_radius(x, v0, v1, v_breaks) * 2.0 ** -k
+            U = u0 + (u1 - u0) * g
+            V = np.full_like(U, x + r if side == "v0" else x - r)
+        else:
+            x = u0 if side == "u0" else u1
+            r = grading_radius(x, u0, u1, u_breaks) * 2.0 ** -k
+            V = v0 + (v1 - v0) * g
+            U = np.full_like(V, x + r if side == "u0" else x - r)
+        f = face_field(U, V)
+        Kr = np.where(f["regular"], np.abs(f["K"]), np.nan)
+        kmax.append(float(np.nanmax(Kr)) if np.isfinite(Kr).any() else None)
+    finite = [k for k in kmax if k is not None]
+    growth = finite[-1] / finite[0] if len(finite) >= 2 and finite[0] > 0 else 1.0
+    return {"side": side, "verdict": "regular" if growth < UNBOUNDED_GROWTH else "inconclusive",
+            "max_abs_K_growth": growth, "max_abs_K": kmax}

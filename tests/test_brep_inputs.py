@@ -1,0 +1,110 @@
+"""Bad BRep input gives a clear InputError (exit 2 on the command line), and provenance."""
+import os
+import subprocess
+
+import pytest
+
+from conftest import ROOT, needs_freecad, shared_hull
+
+from hullprod_wb.core.errors import InputError
+
+pytestmark = needs_freecad
+
+
+def run_cli(*args):
+    return subprocess.run([os.path.join(ROOT, "hullprod")] + list(args), capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_missing_file(tmp_path):
+    from hullprod_wb.brep.loading import load_brep
+    with pytest.raises(InputError, match="not found"):
+        load_brep(str(tmp_path / "nope.igs"))
+
+
+def test_corrupt_iges_is_rejected(tmp_path):
+    from hullprod_wb.brep.loading import load_brep
+    p = tmp_path / "corrupt.igs"
+    p.write_text("this is not an IGES file\n" * 5)
+    with pytest.raises(InputError, match="(?i)iges"):
+        load_brep(str(p))
+
+
+def test_empty_step_is_rejected(tmp_path):
+    from hullprod_wb.brep.loading import load_brep
+    p = tmp_path / "empty.step"
+    p.write_text("")
+    with pytest.raises(InputError, match="empty"):
+        load_brep(str(p))
+
+
+def test_shape_without_faces(tmp_path):
+    from hullprod_wb.freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    import Part
+    from hullprod_wb.brep.loading import load_brep
+    p = tmp_path / "wire.brep"
+    Part.makeLine(FreeCAD.Vector(0, 0, 0), FreeCAD.Vector(1, 0, 0)).exportBrep(str(p))
+    with pytest.raises(InputError, match="no faces"):
+        load_brep(str(p))
+    with pytest.raises(InputError, match="null"):
+        load_brep(Part.Shape())
+
+
+def test_face_selection_out_of_range():
+    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.freecad_env import import_freecad
+    import_freecad()
+    import Part
+    with pytest.raises(InputError, match="out of range"):
+        load_brep(Part.makeBox(1, 1, 1), faces=[7])
+    b = load_brep(Part.makeBox(1, 1, 1), faces=[2, 1])
+    assert [n for n, _ in b.faces] == [1, 2]
+
+
+def test_source_shape_is_not_modified():
+    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.freecad_env import import_freecad
+    import_freecad()
+    import Part
+    box = Part.makeBox(1, 2, 3)
+    before = box.exportBrepToString()
+    b = load_brep(box)
+    b.shape.translate(Part.Vertex(1, 1, 1).Point)
+    assert box.exportBrepToString() == before
+
+
+def test_declared_units_of_shared_hulls():
+    from hullprod_wb.brep.loading import load_brep
+    b = load_brep(shared_hull("brep/dtmb5415_half_overture.igs"))
+    assert b.units["source_unit"] == "m" and b.units["working_unit"] == "mm"
+    assert b.info["face_count"] == 3
+
+
+def test_provenance_counts_creases_and_side():
+    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.provenance import shape_provenance
+    from hullprod_wb.freecad_env import import_freecad
+    import_freecad()
+    import Part
+    box = Part.makeBox(2, 1, 1)
+    b = load_brep(box)
+    prov = shape_provenance(b.shape, b.faces)
+    # A box: 12 edges, each shared by two faces at 90 degrees.
+    assert prov["edges"]["free_edges"] == 0
+    assert prov["edges"]["shared_edge_sides"] == 24
+    assert prov["edges"]["c0_crease_length"] == pytest.approx(4 * 2 + 8 * 1)
+    assert prov["hull_side"].startswith("starboard")
+    assert prov["surface_types"] == {"Plane": 6}
+
+
+def test_cli_bad_brep_inputs_exit_2(tmp_path):
+    p = tmp_path / "corrupt.iges"
+    p.write_text("garbage\n")
+    for args in (["analyze", str(tmp_path / "missing.step")], ["analyze", str(p)],
+                 ["analyze", str(tmp_path / "x.xyz")]):
+        if args[1].endswith(".xyz"):
+            (tmp_path / "x.xyz").write_text("1 2 3\n")
+        r = run_cli(*args)
+        assert r.returncode == 2, (args, r.stdout, r.stderr)
+        assert r.stderr.startswith("hullprod: error:") and len(r.stderr.strip().splitlines()) == 1
