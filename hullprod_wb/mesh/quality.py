@@ -1,0 +1,212 @@
+"""Mesh-quality and representation provenance (paper section 4.2: topology, boundary
+fraction, triangle quality, edge-length and associated-area distributions, valence,
+connected components, watertightness, and the adjacent-face normal variation).
+
+The normal variation, the angle between the normals of two triangles sharing an edge,
+depends directly on resolution and tessellation; it is a diagnostic only and never
+enters the signature.
+
+Advisory ('good' | 'caution' | 'poor') on the reliability of mesh curvature, with reasons:
+
+poor when any of
+  - non-manifold edges are present,
+  - the winding cannot be made consistent (non-orientable triangles),
+  - more than 1 % of the triangles are slivers (shape quality q < 0.1),
+  - the 1st percentile of the smallest angle is below 5 degrees,
+  - more than 1 % of the interior edges bend by more than 30 degrees (sharp edges or a
+    tessellation far too coarse for its curvature);
+caution when any of
+  - degenerate triangles were removed at loading,
+  - more than 5 % of the triangles have q < 0.3,
+  - the edge lengths span more than a factor 20 between the 1st and 99th percentiles,
+  - more than 10 % of the interior vertices have a valence outside 4..8,
+  - the 99th percentile of the normal variation exceeds 10 degrees (coarse for its curvature),
+  - the mesh has more than one connected component, or duplicated triangles;
+good otherwise. The advisory judges the tessellation only; the boundary fractions are
+reported here, and the share of area without valid curvature is judged by the backend.
+Shape quality q = 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) is 1 for an equilateral triangle,
+0.87 for a right isosceles one and tends to 0 for slivers.
+"""
+import numpy as np
+
+from .curvature import check_arrays
+from .topology import edge_table, face_pairs
+
+#: Percentiles of every distribution summary.
+PERCENTILES = (1, 5, 50, 95, 99)
+
+# Advisory thresholds (see module docstring).
+SLIVER_Q = 0.1
+SLIVER_FRACTION_POOR = 0.01
+MIN_ANGLE_P01_POOR = 5.0
+SHARP_EDGE_DEG = 30.0
+SHARP_FRACTION_POOR = 0.01
+LOW_Q = 0.3
+LOW_Q_FRACTION_CAUTION = 0.05
+EDGE_SPREAD_CAUTION = 20.0
+IRREGULAR_VALENCE_CAUTION = 0.10
+NORMAL_P99_CAUTION = 10.0
+
+
+def summary(x):
+    """min, p01, p05, median, p95, p99, max and mean of x (None entries when x is empty)."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    keys = ("min", "p01", "p05", "median", "p95", "p99", "max", "mean")
+    if x.size == 0:
+        return dict.fromkeys(keys)
+    p = np.percentile(x, PERCENTILES)
+    vals = (x.min(), *p, x.max(), x.mean())
+    return {k: float(v) for k, v in zip(keys, vals)}
+
+
+def triangle_measures(V, F):
+    """Per-triangle area (m,), shape quality q (m,), smallest and largest angle in degrees (m,)."""
+    P = V[F]
+    e = P[:, [1, 2, 0]] - P                   # side j: corner j -> j+1
+    l2 = np.einsum("ijk,ijk->ij", e, e)
+    dblA = np.linalg.norm(np.cross(e[:, 0], e[:, 1]), axis=1)
+    area = 0.5 * dblA
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q = 2.0 * np.sqrt(3.0) * dblA / l2.sum(axis=1)
+    # angle at corner j between side j (j -> j+1) and the reversed side j-1 (j -> j-1)
+    dots = -np.einsum("ijk,ijk->ij", e, e[:, [2, 0, 1]])
+    ang = np.degrees(np.arctan2(dblA[:, None], dots))
+    return area, q, ang.min(axis=1), ang.max(axis=1)
+
+
+def normal_variation(V, F, table=None):
+    """Angle in degrees between the unit normals of the two triangles at every manifold
+    interior edge: (p,) angles and (p, 2) face pairs. Diagnostic only."""
+    if table is None:
+        table = edge_table(F, len(V))
+    pairs, _ = face_pairs(F, table)
+    P = V[F]
+    N = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        N /= np.linalg.norm(N, axis=1)[:, None]
+    a, b = N[pairs[:, 0]], N[pairs[:, 1]]
+    ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b)))
+    return ang, pairs
+
+
+def _components(n, edges):
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    g = coo_matrix((np.ones(len(edges), dtype=np.int8), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    return int(connected_components(g, directed=False)[0])
+
+
+def _as_arrays(mesh):
+    if isinstance(mesh, tuple):
+        V, F = check_arrays(*mesh)
+        return V, F, {}
+    V, F = check_arrays(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+    meta = getattr(mesh, "metadata", None) or {}
+    return V, F, meta.get("hullprod", {})
+
+
+def mesh_quality(mesh):
+    """Quality and provenance summary of a triangle mesh (trimesh.Trimesh or (V, F)).
+
+    Returns a JSON-ready dict: counts, areas, topology, distributions (min/p01/p05/median/
+    p95/p99/max/mean) and the advisory with its reasons (module docstring).
+    """
+    V, F, prep = _as_arrays(mesh)
+    n, m = len(V), len(F)
+    table = edge_table(F, n)
+    ne = len(table.count)
+    area, q, amin, amax = triangle_measures(V, F)
+    total = float(area.sum())
+    vertex_area = np.bincount(F.ravel(), weights=np.repeat(area / 3.0, 3), minlength=n)
+    be = table.edges[table.count == 1]
+    bnd = np.zeros(n, dtype=bool)
+    bnd[be.ravel()] = True
+    nme = table.edges[table.count > 2]
+    nmv = np.zeros(n, dtype=bool)
+    nmv[nme.ravel()] = True
+    lengths = np.linalg.norm(V[table.edges[:, 1]] - V[table.edges[:, 0]], axis=1)
+    valence = np.bincount(table.edges.ravel(), minlength=n)
+    interior = ~bnd & ~nmv & (valence > 0)
+    irregular = interior & ((valence < 4) | (valence > 8))
+    nvar, pairs = normal_variation(V, F, table)
+    _, same = face_pairs(F, table)
+    interior_edges = int(len(nvar))
+    sharp = int(np.count_nonzero(nvar > SHARP_EDGE_DEG))
+    vhist = np.bincount(valence)
+    out = {
+        "counts": {"vertices": n, "faces": m, "edges": ne},
+        "total_area": total,
+        "boundary": {
+            "edges": int(len(be)),
+            "edge_fraction": len(be) / ne if ne else 0.0,
+            "vertices": int(bnd.sum()),
+            "vertex_fraction": float(bnd.mean()) if n else 0.0,
+            "vertex_area_fraction": float(vertex_area[bnd].sum() / total) if total > 0 else 0.0,
+        },
+        "nonmanifold": {"edges": int(len(nme)), "vertices": int(nmv.sum())},
+        "inconsistent_winding_edges": int(np.count_nonzero(same)),
+        "connected_components": _components(n, table.edges),
+        "watertight": bool(len(be) == 0 and len(nme) == 0),
+        "degenerate_faces_removed": int(prep.get("degenerate_faces_removed", 0)),
+        "duplicate_faces": int(prep.get("duplicate_faces", 0)),
+        "non_orientable_faces": int(prep.get("non_orientable_faces", 0)),
+        "triangle_quality": summary(q),
+        "sliver_fraction": float(np.mean(q < SLIVER_Q)) if m else 0.0,
+        "low_quality_fraction": float(np.mean(q < LOW_Q)) if m else 0.0,
+        "min_angle_deg": summary(amin),
+        "max_angle_deg": summary(amax),
+        "edge_length": summary(lengths),
+        "vertex_area": summary(vertex_area),
+        "valence": {
+            "histogram": {int(k): int(c) for k, c in enumerate(vhist) if c},
+            "min": int(valence.min()) if n else 0,
+            "max": int(valence.max()) if n else 0,
+            "mean": float(valence.mean()) if n else 0.0,
+            "interior_irregular_fraction": float(irregular.sum() / max(1, interior.sum())),
+        },
+        "normal_variation_deg": dict(summary(nvar), interior_edges=interior_edges,
+                                     above_30deg=sharp,
+                                     note="diagnostic only, never part of the signature"),
+    }
+    out["advisory"], out["reasons"] = advisory(out)
+    return out
+
+
+def advisory(qd):
+    """('good' | 'caution' | 'poor', [reasons]) from a mesh_quality dict (module docstring)."""
+    poor, caution = [], []
+    if qd["nonmanifold"]["edges"]:
+        poor.append("%d non-manifold edges" % qd["nonmanifold"]["edges"])
+    if qd["non_orientable_faces"]:
+        poor.append("%d triangles cannot be oriented consistently" % qd["non_orientable_faces"])
+    if qd["sliver_fraction"] > SLIVER_FRACTION_POOR:
+        poor.append("%.1f %% of triangles are slivers (q < %g)" % (100 * qd["sliver_fraction"], SLIVER_Q))
+    p01 = qd["min_angle_deg"]["p01"]
+    if p01 is not None and p01 < MIN_ANGLE_P01_POOR:
+        poor.append("1st percentile of the smallest angle is %.2f deg (< %g)" % (p01, MIN_ANGLE_P01_POOR))
+    nv = qd["normal_variation_deg"]
+    if nv["interior_edges"] and nv["above_30deg"] / nv["interior_edges"] > SHARP_FRACTION_POOR:
+        poor.append("%.1f %% of interior edges bend by more than %g deg"
+                    % (100.0 * nv["above_30deg"] / nv["interior_edges"], SHARP_EDGE_DEG))
+    if qd["degenerate_faces_removed"]:
+        caution.append("%d degenerate triangles removed" % qd["degenerate_faces_removed"])
+    if qd["low_quality_fraction"] > LOW_Q_FRACTION_CAUTION:
+        caution.append("%.1f %% of triangles have shape quality q < %g" % (100 * qd["low_quality_fraction"], LOW_Q))
+    el = qd["edge_length"]
+    if el["p01"] and el["p99"] / el["p01"] > EDGE_SPREAD_CAUTION:
+        caution.append("edge lengths span a factor %.0f between 1st and 99th percentiles" % (el["p99"] / el["p01"]))
+    irr = qd["valence"]["interior_irregular_fraction"]
+    if irr > IRREGULAR_VALENCE_CAUTION:
+        caution.append("%.1f %% of interior vertices have valence outside 4..8" % (100 * irr))
+    if nv["p99"] is not None and nv["p99"] > NORMAL_P99_CAUTION:
+        caution.append("99th percentile of the normal variation is %.1f deg (> %g)" % (nv["p99"], NORMAL_P99_CAUTION))
+    if qd["connected_components"] > 1:
+        caution.append("%d connected components" % qd["connected_components"])
+    if qd["duplicate_faces"]:
+        caution.append("%d duplicated triangles" % qd["duplicate_faces"])
+    if poor:
+        return "poor", poor + caution
+    if caution:
+        return "caution", caution
+    return "good", []
