@@ -67,7 +67,7 @@ def open_mesh(source):
     if isinstance(source, (tuple, list)) and len(source) == 2:
         return mesh_from_arrays(*source), {"path": None, "sha256": None, "format": "arrays",
                                            "representation": "mesh"}
-    if type(source).__name__ == "Mesh" or hasattr(source, "Mesh"):
+    if hasattr(source, "Topology") or hasattr(source, "Mesh"):  # Mesh.Mesh or a Mesh::Feature
         mesh = mesh_from_freecad(source)
         return mesh, {"path": None, "sha256": None, "format": "FreeCAD mesh", "representation": "mesh",
                       "name": getattr(source, "Label", None)}

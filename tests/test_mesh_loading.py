@@ -1,0 +1,276 @@
+"""Mesh input: STL (binary and ASCII), OBJ, PLY, arrays, trimesh and FreeCAD meshes; bad
+input gives InputError or a recorded diagnosis; the caller's objects are never modified;
+the public meshes of ../shared/hulls/mesh read to finite values with provenance."""
+import os
+
+import numpy as np
+import pytest
+import trimesh
+
+from conftest import needs_freecad, shared_hull
+from hullprod_wb.core.constants import METRICS
+from hullprod_wb.core.errors import InputError
+from hullprod_wb.core.inputs import sha256_file
+from hullprod_wb.core.validity import Status
+from hullprod_wb.examples.analytic_meshes import half_wigley_mesh, icosphere_mesh, plane_mesh, torus_mesh
+from hullprod_wb.mesh.backend import assess_mesh
+from hullprod_wb.mesh.loading import load_mesh, mesh_from_arrays, mesh_from_freecad, mesh_from_trimesh
+
+FORMATS = [("stl", "binary.stl"), ("stl_ascii", "ascii.stl"), ("obj", "mesh.obj"), ("ply", "mesh.ply")]
+
+
+def export(tmp_path, V, F, file_type, name):
+    path = os.path.join(str(tmp_path), name)
+    trimesh.Trimesh(V, F, process=False).export(path, file_type=file_type)
+    return path
+
+
+@pytest.mark.parametrize("file_type,name", FORMATS)
+def test_formats_round_trip(tmp_path, file_type, name):
+    V, F = half_wigley_mesh(32, 8, "random", grading=0.3)
+    path = export(tmp_path, V, F, file_type, name)
+    m = load_mesh(path)
+    info = m.metadata["hullprod"]
+    assert len(m.vertices) == len(V) and len(m.faces) == len(F)
+    if file_type.startswith("stl"):
+        # STL stores three corners per triangle: they must be welded back to shared vertices
+        assert info["input_vertices"] == 3 * len(F)
+        assert info["welded_vertices"] == 3 * len(F) - len(V)
+    assert info["degenerate_faces_removed"] == 0 and info["orientation_changed"] is False
+    ref = assess_mesh((V, F), lref=1.0, with_fields=False)
+    r = assess_mesh(path, lref=1.0, with_fields=False)
+    assert r.input["path"] == os.path.abspath(path)
+    assert r.input["sha256"] == sha256_file(path) and r.input["format"] == file_type.split("_")[0]
+    assert r.input["representation"] == "mesh"
+    # STL and this PLY writer store float32 (relative rounding 6e-8), OBJ 8 decimals; the
+    # curvature divides coordinate differences by edge lengths of ~0.008, so values agree
+    # to about 1e-5 relative.
+    for mname in METRICS:
+        assert r.validity[mname].value == pytest.approx(ref.validity[mname].value, rel=1e-4, abs=1e-6)
+
+
+def test_missing_file():
+    with pytest.raises(InputError, match="not found"):
+        load_mesh("/nonexistent/hull.stl")
+
+
+def test_unknown_extension(tmp_path):
+    p = tmp_path / "hull.xyz"
+    p.write_text("1 2 3\n")
+    with pytest.raises(InputError, match="unknown mesh format"):
+        load_mesh(str(p))
+    with pytest.raises(InputError, match="unknown mesh format"):
+        assess_mesh(str(p))
+
+
+def test_empty_file(tmp_path):
+    p = tmp_path / "empty.stl"
+    p.write_bytes(b"")
+    with pytest.raises(InputError, match="empty"):
+        load_mesh(str(p))
+
+
+def test_directory_is_not_a_file(tmp_path):
+    d = tmp_path / "folder.stl"
+    d.mkdir()
+    with pytest.raises(InputError, match="not a file"):
+        load_mesh(str(d))
+
+
+@pytest.mark.parametrize("name,content", [
+    ("garbage.stl", b"\x00\x01garbage" * 20),
+    ("nothing.stl", b"solid x\nendsolid x\n"),
+    ("text.obj", b"this is not a mesh\n"),
+    ("broken.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n"),
+])
+def test_unreadable_or_faceless_file(tmp_path, name, content):
+    p = tmp_path / name
+    p.write_bytes(content)
+    with pytest.raises(InputError) as exc:
+        load_mesh(str(p))
+    msg = str(exc.value)
+    assert str(p) in msg and "\n" not in msg
+    assert "no triangles" in msg or "cannot read" in msg
+
+
+def test_nan_coordinates(tmp_path):
+    V, F = plane_mesh(4)
+    V[5, 2] = np.nan
+    with pytest.raises(InputError, match="NaN or infinite"):
+        mesh_from_arrays(V, F)
+    V[5, 2] = np.inf
+    with pytest.raises(InputError, match="NaN or infinite"):
+        assess_mesh((V, F))
+    p = tmp_path / "nan.stl"
+    p.write_text("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 nan\n"
+                 "vertex 0 1 0\nendloop\nendfacet\nendsolid x\n")
+    with pytest.raises(InputError, match="NaN or infinite"):
+        load_mesh(str(p))
+
+
+def test_bad_arrays():
+    V, F = plane_mesh(2)
+    with pytest.raises(InputError, match=r"\(n, 3\)"):
+        mesh_from_arrays(V[:, :2], F)
+    with pytest.raises(InputError, match="outside"):
+        mesh_from_arrays(V, F + len(V))
+    with pytest.raises(InputError, match="no triangles"):
+        mesh_from_arrays(V, np.zeros((0, 3), dtype=int))
+
+
+def test_degenerate_triangles_removed_and_counted(tmp_path):
+    V, F = plane_mesh(6)
+    n = len(V)
+    # a repeated-vertex triangle, and a zero-area one through a new point on the edge 0-1
+    V2 = np.vstack([V, 0.5 * (V[0] + V[1])])
+    extra = np.array([[0, 0, 1], [0, 1, n]])
+    F2 = np.vstack([F, extra])
+    m = mesh_from_arrays(V2, F2)
+    info = m.metadata["hullprod"]
+    assert info["degenerate_faces_removed"] == 2
+    assert info["unreferenced_vertices_removed"] == 1   # the collinear point is used by no other triangle
+    assert len(m.faces) == len(F) and len(m.vertices) == n
+    r = assess_mesh((V2, F2), lref=2.0)
+    assert r.provenance["preparation"]["degenerate_faces_removed"] == 2
+    assert any("degenerate" in w for w in r.warnings)
+    assert r.provenance["quality"]["advisory"] in ("caution", "poor")
+    # all degenerate: nothing usable
+    with pytest.raises(InputError, match="degenerate"):
+        mesh_from_arrays(V2, extra)
+    p = export(tmp_path, V2, F2, "stl", "degenerate.stl")
+    assert load_mesh(p).metadata["hullprod"]["degenerate_faces_removed"] == 2
+
+
+def test_non_manifold_edge_is_diagnosed():
+    V, F = icosphere_mesh(6)
+    # a small closed tetrahedron standing on the sphere edge (a, b): that edge then has
+    # four triangles, and a, b are non-manifold vertices without being on a boundary
+    a, b = F[0, 0], F[0, 1]
+    mid = 0.5 * (V[a] + V[b])
+    c, d = 1.3 * mid + [0.02, 0.0, 0.0], 1.3 * mid - [0.02, 0.0, 0.0]
+    n = len(V)
+    V2 = np.vstack([V, c, d])
+    tet = np.array([[a, b, n], [b, a, n + 1], [a, n, n + 1], [b, n + 1, n]])
+    F2 = np.vstack([F, tet])
+    m = mesh_from_arrays(V2, F2)
+    assert m.metadata["hullprod"]["nonmanifold_edges"] == 1
+    assert m.metadata["hullprod"]["boundary_edges"] == 0
+    r = assess_mesh((V2, F2), lref=2.0)
+    q = r.provenance["quality"]
+    assert q["nonmanifold"]["edges"] == 1 and q["nonmanifold"]["vertices"] == 2
+    assert q["advisory"] == "poor" and not q["watertight"]
+    assert not r.fields.valid[a] and not r.fields.valid[b]
+    assert r.validity["I_D"].status == Status.MESH_SENSITIVE
+    ex = r.validity["I_D"].evidence["excluded"]
+    assert ex["nonmanifold_vertices"] == 2 and ex["boundary_vertices"] == 0
+    assert any("non-manifold" in w for w in r.warnings)
+    # nothing but non-manifold edges (one triangle stored three times): no usable surface
+    P = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
+    with pytest.raises(InputError, match="more than two"):
+        mesh_from_arrays(P, np.array([[0, 1, 2]] * 3))
+
+
+def test_orientation_fixed_on_a_copy():
+    V, F = icosphere_mesh(6)
+    rng = np.random.default_rng(2)
+    flip = rng.random(len(F)) < 0.3
+    G = F.copy()
+    G[flip] = G[flip][:, ::-1]
+    G_before = G.copy()
+    V_before = V.copy()
+    m = mesh_from_arrays(V, G)
+    info = m.metadata["hullprod"]
+    assert np.array_equal(G, G_before) and np.array_equal(V, V_before)   # caller's arrays untouched
+    assert info["winding_flipped_faces"] == int(flip.sum())
+    assert info["orientation_changed"] is True
+    assert np.array_equal(m.faces, F)                                     # the majority winding kept
+    # the whole sphere inside out: closed, so it is turned outward and H > 0
+    m2 = mesh_from_arrays(V, F[:, ::-1])
+    assert m2.metadata["hullprod"]["inverted_closed_pieces"] == 1
+    r = assess_mesh((V, G), lref=2.0)
+    assert r.validity["I_D"].value == pytest.approx(4.0, rel=1e-10)
+    assert np.allclose(r.fields.H, 1.0, atol=1e-10)
+    assert r.provenance["orientation"]["winding_flipped_faces"] == int(flip.sum())
+
+
+def test_trimesh_input_not_modified():
+    V, F = torus_mesh(8)
+    F = F.copy()
+    F[::7] = F[::7][:, ::-1]
+    tm = trimesh.Trimesh(V, F, process=False)
+    faces_before = np.array(tm.faces)
+    verts_before = np.array(tm.vertices)
+    m = mesh_from_trimesh(tm)
+    assert m is not tm
+    assert np.array_equal(tm.faces, faces_before) and np.array_equal(tm.vertices, verts_before)
+    r = assess_mesh(tm, lref=8.0, with_fields=False)
+    assert np.array_equal(tm.faces, faces_before)
+    assert r.input["format"] == "trimesh" and r.provenance["orientation"]["orientation_changed"]
+
+
+def test_welding_is_exact():
+    """Only bit-identical points are merged: a vertex 1e-12 away stays separate."""
+    V, F = plane_mesh(2)
+    Vs = V[F].reshape(-1, 3).copy()                       # unshared corners, like STL
+    Fs = np.arange(len(Vs)).reshape(-1, 3)
+    m = mesh_from_arrays(Vs, Fs)
+    assert len(m.vertices) == len(V)
+    centre = np.flatnonzero(np.all(Vs == 0.0, axis=1))
+    assert len(centre) > 1                                 # the centre is a corner of several triangles
+    Vs[centre[0], 0] += 1e-12
+    m2 = mesh_from_arrays(Vs, Fs)
+    assert len(m2.vertices) == len(V) + 1
+    Vneg = Vs.copy()
+    Vneg[Vneg == 0.0] = -0.0                              # -0.0 and 0.0 are the same point
+    assert len(mesh_from_arrays(Vneg, Fs).vertices) == len(V) + 1
+
+
+@needs_freecad
+def test_freecad_mesh():
+    from hullprod_wb.freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    import Mesh
+    V, F = half_wigley_mesh(24, 6)
+    fm = Mesh.Mesh([[FreeCAD.Vector(*V[i]) for i in tri] for tri in F])
+    m = mesh_from_freecad(fm)
+    assert len(m.vertices) == len(V) and len(m.faces) == len(F)
+    ref = assess_mesh((V, F), lref=1.0, with_fields=False)
+    r = assess_mesh(fm, lref=1.0, with_fields=False)
+    assert r.input["format"] == "FreeCAD mesh"
+    # FreeCAD's mesh kernel stores points in float32 (relative rounding 6e-8), amplified
+    # by the curvature's division by edge lengths of ~0.01: agreement to ~1e-6 relative.
+    for mname in METRICS:
+        assert r.validity[mname].value == pytest.approx(ref.validity[mname].value, rel=1e-5, abs=1e-7)
+    # a document object: the points come with its placement applied
+    doc = FreeCAD.newDocument("hullprod_mesh_test")
+    try:
+        obj = doc.addObject("Mesh::Feature", "Hull")
+        obj.Mesh = fm
+        obj.Placement.Base = FreeCAD.Vector(10.0, 0.0, 0.0)
+        doc.recompute()
+        moved = mesh_from_freecad(obj)
+        assert moved.metadata["hullprod"]["source"]["object"] == "Hull"
+        assert np.allclose(np.sort(moved.vertices[:, 0]), np.sort(m.vertices[:, 0]) + 10.0, atol=1e-6)
+    finally:
+        FreeCAD.closeDocument(doc.Name)
+    with pytest.raises(InputError):
+        mesh_from_freecad(object())
+
+
+@pytest.mark.parametrize("name", ["wigley_full.stl", "dtmb5415_full_coarse.stl", "dtmb5512_full.obj",
+                                  "box_barge.obj"])
+def test_public_meshes(name):
+    path = shared_hull("mesh/" + name)
+    r = assess_mesh(path)
+    assert r.input["sha256"] == sha256_file(path)
+    for m in METRICS:
+        rec = r.validity[m]
+        assert rec.status in (Status.VALID, Status.MESH_SENSITIVE)
+        assert np.isfinite(rec.value)
+        assert rec.evidence["quality_advisory"] in ("good", "caution", "poor")
+    assert sum(r.validity[m].value for m in METRICS[3:]) == pytest.approx(1.0, abs=1e-12)
+    p = r.provenance
+    assert p["quality"]["counts"]["faces"] == p["mesh_counts"]["faces"] > 0
+    assert "orientation_changed" in p["orientation"] and p["preparation"]["source"]["path"] == os.path.abspath(path)
+    assert 0 < r.integrals.valid_area <= r.integrals.represented_area
+    r.to_json()
