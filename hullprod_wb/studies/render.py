@@ -134,7 +134,8 @@ def render_density_map(fields, k_f=DEFAULT_KF, title=None, views=("profile", "bo
     from matplotlib import cm, colors
     lg, (lo, hi) = density_values(fields, k_f)
     norm = colors.Normalize(vmin=lo, vmax=hi, clip=True)
-    cmap = cm.get_cmap(DENSITY_CMAP)
+    import matplotlib
+    cmap = matplotlib.colormaps[DENSITY_CMAP]
     tv = triangle_mean(lg, fields.triangles)
     rgba = cmap(norm(np.nan_to_num(tv, nan=lo)))
     rgba[~np.isfinite(tv)] = colors.to_rgba(INVALID_COLOUR)

@@ -172,12 +172,24 @@ def faces_section(a):
                                     out, left=(1, 6)))
 
 
+#: Mesh-quality items shown in the visible table (the full record follows, collapsed).
+QUALITY_HEADLINE = ("advisory", "reasons", "counts", "connected_components", "watertight", "boundary",
+                    "sliver_fraction", "low_quality_fraction", "inconsistent_winding_edges")
+
+
+def quality_table(q):
+    """Headline mesh-quality table and the full record in a collapsed block."""
+    head = {k: q[k] for k in QUALITY_HEADLINE if k in q}
+    return (kv_table(head) if head else "") + \
+        "<details><summary>full mesh-quality record</summary>%s</details>" % kv_table(q)
+
+
 def quality_section(a):
     from .refinement import mesh_quality_of
     q = mesh_quality_of(a)
     if not q:
         return ""
-    return "<h2>Mesh quality</h2>" + kv_table(q)
+    return "<h2>Mesh quality</h2>" + quality_table(q)
 
 
 def provenance_section(a):
@@ -268,7 +280,8 @@ def refinement_section(s):
         parts.append(table(["from", "to", "dI_D % (vs 'to')", "d1"], succ, left=(0, 1)))
     for r in s["levels"]:
         if r.get("quality"):
-            parts.append("<details><summary>mesh quality: %s</summary>%s</details>" % (esc(r["name"]), kv_table(r["quality"])))
+            parts.append("<details><summary>mesh quality: %s (%s)</summary>%s</details>"
+                         % (esc(r["name"]), esc(r["quality"].get("advisory")), kv_table(r["quality"])))
     return "".join(parts)
 
 

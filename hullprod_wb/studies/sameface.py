@@ -411,6 +411,8 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
     if not levels or levels[0] < 6:
         raise InputError("same-face levels need at least 6 panels (the two-ring interior of a "
                          "coarser grid is empty), got %r" % (levels,))
+    if not 0.0 <= float(inset) < 0.5:
+        raise InputError("the inset must be a fraction in [0, 0.5), got %r" % (inset,))
     brep = load_brep(source, faces)
     out_faces = []
     nf = len(brep.faces)
