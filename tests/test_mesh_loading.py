@@ -274,3 +274,15 @@ def test_public_meshes(name):
     assert "orientation_changed" in p["orientation"] and p["preparation"]["source"]["path"] == os.path.abspath(path)
     assert 0 < r.integrals.valid_area <= r.integrals.represented_area
     r.to_json()
+
+
+def test_unique_rows_exact_even_with_hash_collisions(monkeypatch):
+    import hullprod_wb.mesh.loading as L
+    rng = np.random.default_rng(4)
+    B = rng.integers(0, 5, size=(500, 3)).astype(np.int64)
+    first, inverse = L.unique_rows(B)
+    assert np.array_equal(B[first][inverse], B)
+    assert len(first) == len(np.unique(B, axis=0)) and np.all(np.diff(first) > 0)
+    monkeypatch.setattr(L, "_mix", lambda z: z & np.uint64(1))  # almost every row collides
+    f2, i2 = L.unique_rows(B)
+    assert np.array_equal(f2, first) and np.array_equal(i2, inverse)

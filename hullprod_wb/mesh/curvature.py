@@ -219,7 +219,7 @@ def _tensor_block(Vt, fc, frames, acc, sl):
     t = e0 / (sl0 + gi)
     nf = N / (dblA + gi)
     bf = _cross(nf, t)
-    vert = [_take(frames, fj) for fj in f]  # (9, b) per corner: normal, u, v
+    vert = [_take(frames, fj) for fj in f]  # (6, b) per corner: normal, u
     nt = [_dot(g[0:3], t) for g in vert]
     nb = [_dot(g[0:3], bf) for g in vert]
     sinv = 1.0 / (np.sqrt(l0 + l1 + l2) + gi)
@@ -258,19 +258,18 @@ def _tensor_block(Vt, fc, frames, acc, sl):
     mean = 0.5 * (ta + tc)
     dev = 0.5 * (ta - tc)
     for j in range(3):
-        # Rotation R about n_f x n_i taking n_f to n_i, applied to the face frame:
-        # R x = c x - (n_i.x) n_f + ((n_f x n_i).x) (n_f x n_i) / (1 + c) for x in the
-        # face plane, with (n_f x n_i).t = -n_i.b, (n_f x n_i).b = n_i.t and
-        # u_i.(n_f x n_i) = v_i.n_f, so that al = u_i.(R t), be = u_i.(R b).
+        # The rotation about n_i x n_f taking n_i to n_f maps a vector x of the vertex
+        # plane to x - (x.n_f) (n_i + n_f) / (1 + c), c = n_i.n_f. It is the inverse of the
+        # rotation taking the face frame to the vertex normal, so with u' the image of u_i,
+        # al = u_i.(R t) = u'.t and be = u_i.(R b) = u'.b.
         g = vert[j]
         c = _dot(g[0:3], nf)
         uj = g[3:6]
-        un, vn = _dot(uj, nf), _dot(g[6:9], nf)
-        ut, ub = _dot(uj, t), _dot(uj, bf)
+        un, ut, ub = _dot(uj, nf), _dot(uj, t), _dot(uj, bf)
         opp = ~(c > 1e-12 - 1.0)          # opposite normals: half turn about t instead
-        h = vn / (1.0 + c + opp)
-        al = c * ut - nt[j] * un - nb[j] * h
-        be = c * ub - nb[j] * un + nt[j] * h
+        h = un / (1.0 + c + opp)
+        al = ut - nt[j] * h
+        be = ub - nb[j] * h
         if opp.any():
             al[opp] = ut[opp]
             be[opp] = -ub[opp]
@@ -307,7 +306,7 @@ def vertex_curvature(vertices, faces, threads=None):
     has_normal = nlen > 0
     nv /= np.where(has_normal, nlen, 1.0)
     uf, vf = vertex_frames(np.where(has_normal, nv, [[0.0], [0.0], [1.0]]))
-    frames = np.concatenate([nv, uf, vf])     # (9, n): normal, u, v
+    frames = np.concatenate([nv, uf])         # (6, n): normal, u
 
     # 2-3. Face tensors carried to the corners, accumulated with the corner areas.
     acc = np.empty((4, 3, m))

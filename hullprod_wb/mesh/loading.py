@@ -60,13 +60,22 @@ def load_mesh(path):
     path, fmt = check_mesh_path(path)
     trimesh = _trimesh()
     try:
-        loaded = trimesh.load(path, file_type=fmt, force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many kinds of errors for unreadable files
+        if fmt == "stl":  # the STL reader itself: no scene, cache or copy overhead
+            from trimesh.exchange.stl import load_stl
+            with open(path, "rb") as fh:
+                kw = load_stl(fh)
+            vertices, faces = kw["vertices"], kw["faces"]
+        else:
+            loaded = trimesh.load(path, file_type=fmt, force="mesh", process=False)
+            if not isinstance(loaded, trimesh.Trimesh):
+                raise InputError("mesh file %s holds no triangle mesh" % path)
+            vertices, faces = loaded.vertices, loaded.faces
+    except InputError:
+        raise
+    except Exception as exc:  # the readers raise many kinds of errors for unreadable files
         raise InputError("cannot read mesh file %s as %s: %s" % (path, fmt.upper(), exc)) from None
-    if not isinstance(loaded, trimesh.Trimesh):
-        raise InputError("mesh file %s holds no triangle mesh" % path)
     source = {"kind": "file", "path": path, "format": fmt}
-    return prepare_mesh(loaded.vertices, loaded.faces, source)
+    return prepare_mesh(vertices, faces, source)
 
 
 def mesh_from_arrays(vertices, faces, name="arrays"):
@@ -107,16 +116,59 @@ def mesh_from_freecad(obj):
     return prepare_mesh(V, F, source)
 
 
+_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX2 = np.uint64(0x94D049BB133111EB)
+
+
+def _mix(z):
+    """64-bit finaliser (xor-shift-multiply) of uint64 z, in place."""
+    z ^= z >> np.uint64(30)
+    z *= _MIX1
+    z ^= z >> np.uint64(27)
+    z *= _MIX2
+    z ^= z >> np.uint64(31)
+    return z
+
+
+def unique_rows(B):
+    """Exact unique rows of a (k, c) array of 64-bit values.
+
+    Rows are hashed to one uint64 and sorted once; the grouping is then checked against
+    the rows themselves and, should two different rows share a hash, redone with numpy's
+    exact (slower) row sort. Returns (first (u,) index of each distinct row's first
+    occurrence, inverse (k,) group of every row), groups numbered by first occurrence.
+    """
+    B = np.ascontiguousarray(B).view(np.uint64)
+    with np.errstate(over="ignore"):
+        h = _mix(B[:, 0].copy())
+        for col in range(1, B.shape[1]):
+            h ^= B[:, col]
+            h = _mix(h)
+    order = np.argsort(h)
+    hs = h[order]
+    new = np.empty(len(hs), dtype=bool)
+    new[:1] = True
+    np.not_equal(hs[1:], hs[:-1], out=new[1:])
+    starts = np.flatnonzero(new)
+    first = np.minimum.reduceat(order, starts) if len(order) else order
+    inverse = np.empty(len(h), dtype=np.int64)
+    inverse[order] = np.cumsum(new) - 1
+    if not np.array_equal(B[first[inverse]], B):      # a hash collision: exact fallback
+        rows = B.view(np.dtype((np.void, B.dtype.itemsize * B.shape[1]))).ravel()
+        _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
+        inverse = inverse.ravel()
+    rank = np.empty(len(first), dtype=np.int64)
+    by_first = np.argsort(first, kind="stable")
+    rank[by_first] = np.arange(len(first))
+    return first[by_first], rank[inverse]
+
+
 def weld_exact(V, F):
     """Merge vertices with bit-identical coordinates (-0.0 equals 0.0), keeping the order of
     first occurrence. Returns (vertices, faces, number merged)."""
-    Vc = np.ascontiguousarray(V + 0.0)
-    rows = Vc.view(np.dtype((np.void, Vc.dtype.itemsize * 3))).ravel()
-    _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
-    order = np.argsort(first, kind="stable")
-    rank = np.empty_like(order)
-    rank[order] = np.arange(len(order))
-    return Vc[first[order]], rank[inverse.ravel()][F], len(V) - len(first)
+    Vc = np.ascontiguousarray(V, dtype=np.float64) + 0.0
+    first, inverse = unique_rows(Vc)
+    return Vc[first], inverse[F], len(V) - len(first)
 
 
 def degenerate_faces(V, F):
@@ -207,8 +259,7 @@ def prepare_mesh(vertices, faces, source):
     if info["nonmanifold_edges"] == info["edges"]:
         raise InputError("every edge of %s is shared by more than two triangles; no usable surface"
                          % where)
-    sf = np.sort(F, axis=1)
-    info["duplicate_faces"] = int(len(sf) - len(np.unique(sf, axis=0)))
+    info["duplicate_faces"] = int(len(F) - len(unique_rows(np.sort(F, axis=1))[0]))
     F, orient = orient_faces(V, F, table)
     info.update(orient)
     info["vertices"] = int(len(V))
