@@ -280,3 +280,40 @@ def test_assessment_record():
     assert doc["validity"]["I_D"]["status"] == "VALID"
     assert doc["validity"]["I_D"]["evidence"]["quality_advisory"] == p["quality"]["advisory"]
     r.to_json()  # strict JSON: no NaN anywhere
+
+
+def test_face_tensor_fit_is_the_exact_least_squares_solution():
+    """Irregular triangles (sum u v != 0) with arbitrary normals: the closed-form solution of
+    the 3x3 normal equations equals numpy's least-squares solution of the 6 x 3 system."""
+    from hullprod_wb.mesh.curvature import face_tensors
+    rng = np.random.default_rng(7)
+    m = 200
+    V = rng.normal(size=(3 * m, 3)) * [1.0, 1.0, 0.3]
+    F = np.arange(3 * m).reshape(m, 3)
+    N = rng.normal(size=(3 * m, 3))
+    N /= np.linalg.norm(N, axis=1)[:, None]
+    t, b, abc = face_tensors(V, F, N)
+    P = V[F]
+    for f in range(m):
+        rows, rhs = [], []
+        for j in range(3):
+            head, tail = (j + 2) % 3, (j + 1) % 3
+            e = P[f, head] - P[f, tail]
+            dn = N[F[f, head]] - N[F[f, tail]]
+            u, v = e @ t[f], e @ b[f]
+            rows += [[u, v, 0.0], [0.0, u, v]]
+            rhs += [dn @ t[f], dn @ b[f]]
+        x = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
+        assert np.allclose(abc[f], x, rtol=1e-9, atol=1e-9 * np.abs(x).max())
+    assert np.allclose(np.einsum("ij,ij->i", t, b), 0.0, atol=1e-14)
+
+
+def test_face_facing_against_its_vertex_normal_stays_finite():
+    """A tiny triangle folded back over a large one dominates the Max normal at the shared
+    vertex, so the large face's normal is opposite to that vertex normal: its tensor is
+    carried by a half turn instead of the (undefined) minimal rotation."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0]], dtype=float)  # coplanar: exactly opposite
+    F = np.array([[0, 1, 2], [0, 4, 3]])
+    c = vertex_curvature(V, F)
+    assert np.dot(c.normals[0], [0, 0, 1]) < -0.99
+    assert np.all(np.isfinite(c.k1)) and np.all(np.isfinite(c.k2))

@@ -209,17 +209,20 @@ def _normal_block(Vt, fc, cn, area, sl):
     np.multiply(dblA, 0.5 * good, out=area[sl])
 
 
-def _tensor_block(Vt, fc, frames, acc, sl):
-    """Face frame, exact least-squares tensor and its transport to the three corners of
-    one block; writes corner-area weighted (mean, X, Y, weight) into acc[:, j, sl]."""
-    f = [fc[j][sl] for j in range(3)]
+def _fit(Vt, rows, f):
+    """Face frames and the exact least-squares tensors of the faces f = (f0, f1, f2).
+
+    rows: (k, n) vertex data whose first three rows are the unit normals. Returns the face
+    geometry, frames t, b, n_f (3, b), the gathered vertex rows per corner, n_i.t and n_i.b
+    per corner, the tensor (ta, tb, tc) in (t, b) and the mask of fitted faces.
+    """
     e0, e1, l0, l1, l2, N, dblA, good = _face_geometry(Vt, *f)
     sl0 = np.sqrt(l0)
     gi = 1.0 - good
     t = e0 / (sl0 + gi)
     nf = N / (dblA + gi)
     bf = _cross(nf, t)
-    vert = [_take(frames, fj) for fj in f]  # (6, b) per corner: normal, u
+    vert = [_take(rows, fj) for fj in f]
     nt = [_dot(g[0:3], t) for g in vert]
     nb = [_dot(g[0:3], bf) for g in vert]
     sinv = 1.0 / (np.sqrt(l0 + l1 + l2) + gi)
@@ -250,6 +253,27 @@ def _tensor_block(Vt, fc, frames, acc, sl):
     ta = ((q * r - ss) * m0 - sr * m1 + ss * m2) * idet
     tb = (pr * m1 - sr * m0 - ps * m2) * idet
     tc = (ss * m0 - ps * m1 + (p * q - ss) * m2) * idet
+    return (l0, l1, l2, dblA), (t, bf, nf), vert, nt, nb, (ta, tb, tc), ok
+
+
+def face_tensors(vertices, faces, normals):
+    """Per-face least-squares curvature tensors (step 2 of the module docstring).
+
+    vertices (n, 3), faces (m, 3), unit vertex normals (n, 3). Returns t, b (m, 3), the
+    orthonormal face frame (t along the edge from corner 1 to corner 2), and (m, 3)
+    components (a, b, c) of [[a, b], [b, c]] in that frame; zeros for degenerate faces.
+    """
+    V, F = check_arrays(vertices, faces)
+    nrm = np.ascontiguousarray(np.asarray(normals, dtype=float).T)
+    _, (t, bf, _), _, _, _, abc, _ = _fit(np.ascontiguousarray(V.T), nrm, [F[:, j] for j in range(3)])
+    return t.T, bf.T, np.stack(abc, axis=1)
+
+
+def _tensor_block(Vt, fc, frames, acc, sl):
+    """Face frame, exact least-squares tensor and its transport to the three corners of
+    one block; writes corner-area weighted (mean, X, Y, weight) into acc[:, j, sl]."""
+    f = [fc[j][sl] for j in range(3)]
+    (l0, l1, l2, dblA), (t, bf, nf), vert, nt, nb, (ta, tb, tc), ok = _fit(Vt, frames, f)
     corner = _corner_areas(l0, l1, l2, dblA * (0.5 * ok))
     # Rotating the face frame within the tangent planes keeps the trace and turns the
     # deviator (dev, tb), dev = (ta - tc)/2, by the frame angle: with (al, be) = (cos, sin)
@@ -285,8 +309,8 @@ def _tensor_block(Vt, fc, frames, acc, sl):
 def vertex_curvature(vertices, faces, threads=None):
     """Rusinkiewicz (2004) curvature at every vertex (see module docstring).
 
-    vertices: (n, 3) float; faces: (m, 3) int, oriented. Zero-area faces are ignored.
-    threads: worker threads for the block passes (default :func:`default_threads`).
+    vertices: (n, 3) float; faces: (m, 3) int, oriented. Degenerate faces (see
+    DEGENERATE_RTOL) are ignored. threads: worker threads for the block passes (default :func:`default_threads`).
     Returns a MeshCurvature.
     """
     V, F = check_arrays(vertices, faces)
