@@ -101,8 +101,8 @@ def _cross(a, b):
 
 
 def _bincount3(index, weights, n):
-    """Per-vertex sums of (3, m) weights: (3, n)."""
-    return np.stack([np.bincount(index, weights=w, minlength=n) for w in weights])
+    """Per-vertex sums of (3, m) weights: (3, n) float."""
+    return np.stack([np.bincount(index, weights=w, minlength=n) for w in weights]).astype(float, copy=False)
 
 
 def barycentric_vertex_areas(vertices, faces):
@@ -336,7 +336,7 @@ def vertex_curvature(vertices, faces, threads=None):
     acc = np.empty((4, 3, m))
     _run(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
     kmean, kx, ky, wsum = (sum(np.bincount(fc[j], weights=acc[k, j], minlength=n) for j in range(3))
-                           for k in range(4))
+                           .astype(float, copy=False) for k in range(4))
     del acc, frames
 
     # 4. Eigen-decomposition of the vertex tensors [[mean + X, Y], [Y, mean - X]].
@@ -355,6 +355,7 @@ def vertex_curvature(vertices, faces, threads=None):
     nv[:, ~has_normal] = np.nan
     boundary, nonmanifold = vertex_flags(F, n)
     vertex_area = sum(np.bincount(fc[j], weights=area, minlength=n) for j in range(3)) / 3.0
+    vertex_area = vertex_area.astype(float, copy=False)
     return MeshCurvature(normals=nv.T, k1=k1, k2=k2, H=0.5 * (k1 + k2), K=k1 * k2, dir1=d1.T,
                          dir2=d2.T, boundary=boundary, nonmanifold=nonmanifold,
                          vertex_area=vertex_area, mixed_area=wsum)
