@@ -17,10 +17,13 @@ from conftest import ROOT, needs_freecad, shared_hull
 
 pytestmark = needs_freecad
 
-# Scale invariance of the signature under explicit L_ref: K scales as 1/s^2, so with a
-# fixed L_ref, I_D of the hull scaled by s is I_D / s^2. The quadrature sees the same
-# parametric integrand times a constant, so only round-off differs: 1e-9 relative.
-SCALE_RTOL = 1e-9
+# With a fixed L_ref, I_D of the hull scaled by s is I_D / s^2 (K scales as 1/s^2); the
+# adaptive quadrature (asked for rtol 1e-2 below) reproduces that to far better than 1e-3.
+SCALE_RTOL = 1e-3
+#: Coarse BRep quadrature: these tests check the analysis object's plumbing (the same
+#: options reach the backend and its results reach the properties), not the integrals,
+#: which the BRep backend's own tests check at the default settings.
+QUICK = {"order": 3, "rtol": 1e-2, "max_depth": 1}
 
 
 @pytest.fixture(scope="module")
@@ -106,7 +109,7 @@ def test_make_analysis_brep_properties(doc):
     from hullprod_wb.core.validity import Status
     src = wigley_feature(doc)
     before = fingerprint(src)
-    a = make_analysis(src, lref=1.0)
+    a = make_analysis(src, lref=1.0, **QUICK)
     assert a.TypeId == "App::FeaturePython" and isinstance(a.Proxy, HullProdAnalysis)
     assert a.Source is src and list(a.Faces) == [] and a.FacesUsed == [1]
     assert a.Status == "ok" and a.Representation == "brep"
@@ -141,10 +144,10 @@ def test_make_analysis_uses_preferences(doc):
     try:
         preferences.set("DefaultHf", 3e-4)
         preferences.set("DefaultKf", 2e-4)
-        a = make_analysis(src)
+        a = make_analysis(src, **QUICK)
         assert (a.Hf, a.Kf, a.LrefMode, a.LrefUsedMode) == (3e-4, 2e-4, "automatic", "automatic")
         assert a.LrefUsed == pytest.approx(a.LrefAutomatic, rel=1e-15)
-        b = make_analysis(src, h_f=1e-3)
+        b = make_analysis(src, h_f=1e-3, **QUICK)
         assert b.Hf == 1e-3 and b.Kf == 2e-4
     finally:
         preferences.reset()
@@ -155,12 +158,15 @@ def test_recompute_after_source_change(doc):
     from hullprod_wb.app import make_analysis
     from hullprod_wb.examples.builtin import half_wigley_shape
     src = wigley_feature(doc)
-    a = make_analysis(src, lref=1.0)
+    a = make_analysis(src, lref=1.0, **QUICK)
     i_d, span = a.I_D, a.LrefAutomatic
     assert a.I_D_Established and i_d > 0
     src.Shape = half_wigley_shape(2.0, 0.2, 0.125)  # the same hull, twice as large
     doc.recompute()
     assert a.Status == "ok"
+    import hullprod_wb
+    direct = hullprod_wb.assess(src, lref=1.0, **QUICK)  # the same computation: identical
+    assert a.I_D == pytest.approx(direct.validity["I_D"].value, rel=1e-12)
     assert a.I_D == pytest.approx(i_d / 4.0, rel=SCALE_RTOL)
     assert a.LrefAutomatic == pytest.approx(2.0 * span, rel=1e-6)  # span of resampled surface
     a.LrefExplicit = 2.0  # a parameter change recomputes too; scaled L_ref restores I_D
@@ -184,7 +190,7 @@ def test_save_and_reload_round_trip(doc, fc, tmp_path):
     from hullprod_wb.app import HullProdAnalysis, analysis_fields, make_analysis
     from hullprod_wb.app.analysis import PROPERTIES
     src = wigley_feature(doc)
-    a = make_analysis(src, lref=1.0, rtol=2e-4)
+    a = make_analysis(src, lref=1.0, order=3, rtol=2e-2, max_depth=1)
     names = [p[1] for p in PROPERTIES if p[0] not in ("App::PropertyLink", "App::PropertyFileIncluded")]
     values = {n: getattr(a, n) for n in names}
     pts = analysis_fields(a).points.copy()
@@ -205,7 +211,7 @@ def test_save_and_reload_round_trip(doc, fc, tmp_path):
                 assert v == values[n], n
                 assert v == values[n], n
         assert np.array_equal(analysis_fields(b).points, pts)
-        assert b.QuadratureRtol == 2e-4
+        assert b.QuadratureRtol == 2e-2
         assert "Touched" not in b.State  # reopening does not ask for a recompute
         b.touch()
         d2.recompute()  # the restored proxy recomputes
@@ -235,7 +241,7 @@ def test_selected_faces_only(doc):
     assert len(lateral) == 1
     sel = sources_from_selection([(cyl, ["Face%d" % lateral[0]])])
     assert sel == [(cyl, lateral)]
-    a = make_analysis(cyl, faces=sel[0][1], lref=3.0)
+    a = make_analysis(cyl, faces=sel[0][1], lref=3.0, **QUICK)
     assert list(a.FacesUsed) == lateral and list(a.Faces) == lateral
     assert a.RepresentedArea == pytest.approx(2 * math.pi * 1.0 * 3.0, rel=1e-6)  # lateral area only
     assert a.a_single_Established and a.a_single == pytest.approx(1.0, abs=1e-9)  # singly curved
@@ -272,10 +278,10 @@ def test_cancel_leaves_no_object(doc):
     prog = RunProgress(use_indicator=False)
     prog.cancel()
     with pytest.raises(Cancelled):
-        make_analysis(src, progress=prog)
+        make_analysis(src, progress=prog, **QUICK)
     assert len(doc.Objects) == n
     seen = []
-    make_analysis(src, progress=lambda f, msg: seen.append(f))
+    make_analysis(src, progress=lambda f, msg: seen.append(f), **QUICK)
     assert seen and min(seen) >= 0.0 and max(seen) <= 1.0
 
 
@@ -285,7 +291,7 @@ def test_export_analysis(doc, tmp_path):
     from hullprod_wb.app import export as export_mod
     from hullprod_wb.core.errors import InputError
     src = wigley_feature(doc)
-    a = make_analysis(src, lref=1.0)
+    a = make_analysis(src, lref=1.0, **QUICK)
     calls = []
     register_report_writer("test_report", lambda obj, d, f, folder: calls.append(obj.Name) or
                            os.path.join(folder, "report.txt"))
@@ -338,7 +344,7 @@ def test_probe_mesh_and_brep(doc):
     assert r["K"] == pytest.approx(float(np.mean(f.K[tri])), rel=1e-9)  # barycentre: plain mean
     assert r["class_name"] == "elliptic"
     src = wigley_feature(doc)
-    a = make_analysis(src, lref=1.0)
+    a = make_analysis(src, lref=1.0, **QUICK)
     # Exact Gaussian curvature of the Wigley surface y = B/2 f(x) g(z) at x = 0, z = -T/2:
     # y_x = 0, y_xx = -4B/L^2 g, y_z = B/2 f g', y_zz = -B/T^2 f; K = y_xx y_zz / (1 + |grad y|^2)^2.
     from hullprod_wb.examples.builtin import WIGLEY_B as B, WIGLEY_L as L, WIGLEY_T as T
@@ -357,8 +363,8 @@ def test_compare_flags(doc):
     from hullprod_wb.core.errors import InputError
     from hullprod_wb.examples.analytic_meshes import half_wigley_mesh
     src = wigley_feature(doc)
-    a = make_analysis(src, lref=1.0)
-    b = make_analysis(src, lref=1.0)
+    a = make_analysis(src, lref=1.0, **QUICK)
+    b = make_analysis(src, lref=1.0, **QUICK)
     same = compare_analyses([a, b])
     assert same["flags"] == [] and same["values"]["I_D"][0] == same["values"]["I_D"][1]
     mesh = mesh_feature(doc, *half_wigley_mesh(24, 8))
@@ -378,7 +384,7 @@ def test_shared_mesh_hull(doc):
     src = doc.addObject("Mesh::Feature", "WigleyFull")
     src.Mesh = Mesh.Mesh(path)
     before = fingerprint(src)
-    a = make_analysis(src, lref=1.0)
+    a = make_analysis(src, lref=1.0, **QUICK)
     assert a.Status == "ok" and a.Representation == "mesh" and a.LrefUsed == 1.0
     assert all(getattr(a, m + "_Status") for m in ("I_D", "a_flat"))
     assert fingerprint(src) == before

@@ -1,0 +1,117 @@
+"""Compare: two or more analyses side by side (table and bar chart), with the reasons a
+comparison is not like for like (from hullprod_wb.app.compare)."""
+import io
+
+from ..app.compare import compare_analyses
+from ..core.constants import METRIC_LABELS
+from . import wording
+from .qt import QtCore, QtGui, QtWidgets
+
+
+def chart_png(cmp, width_in=7.0, height_in=3.2, dpi=100):
+    """PNG bytes of the grouped bar chart: I_D, I_D+, I_D- (left), class fractions (right).
+
+    Metrics without an established value get no bar and an 'n/a' mark.
+    """
+    from matplotlib.figure import Figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    fig = Figure(figsize=(width_in, height_in), dpi=dpi)
+    FigureCanvasAgg(fig)
+    labels = cmp["labels"]
+    groups = (("I_D", "I_D_plus", "I_D_minus"), ("a_flat", "a_single", "a_elliptic", "a_saddle"))
+    titles = ("developability (dimensionless)", "curvature-class area fractions")
+    n = len(labels)
+    width = 0.8 / n
+    for k, (metrics, title) in enumerate(zip(groups, titles)):
+        ax = fig.add_subplot(1, 2, k + 1)
+        for i, lab in enumerate(labels):
+            xs = [j + (i - (n - 1) / 2.0) * width for j in range(len(metrics))]
+            vals = [cmp["values"][m][i] for m in metrics]
+            ax.bar([x for x, v in zip(xs, vals) if v is not None], [v for v in vals if v is not None],
+                   width * 0.95, label=lab)
+            for x, v in zip(xs, vals):
+                if v is None:
+                    ax.text(x, 0, "n/a", ha="center", va="bottom", fontsize=7, rotation=90)
+        ax.set_xticks(range(len(metrics)))
+        ax.set_xticklabels([METRIC_LABELS[m] for m in metrics], fontsize=8)
+        ax.set_title(title, fontsize=9)
+        ax.tick_params(labelsize=8)
+        if k == 1:
+            ax.set_ylim(0, 1)
+    fig.axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+class ComparePanel:
+    """Task panel: flags, table of values and statuses, bar chart."""
+
+    def __init__(self, analyses):
+        self.analyses = list(analyses)
+        self.cmp = compare_analyses(self.analyses)
+        self.form = QtWidgets.QWidget()
+        self.form.setWindowTitle("HullProd compare")
+        lay = QtWidgets.QVBoxLayout(self.form)
+        if self.cmp["flags"]:
+            text = ("<b style='color:#c0392b'>Not like for like:</b><ul>%s</ul>"
+                    % "".join("<li>%s</li>" % f for f in self.cmp["flags"]))
+        else:
+            text = ("<b style='color:#2e8b57'>Like for like:</b> same representation, L_ref convention, "
+                    "units and thresholds.")
+        self.flags_label = QtWidgets.QLabel(text)
+        self.flags_label.setWordWrap(True)
+        lay.addWidget(self.flags_label)
+        self.table = self._table()
+        lay.addWidget(self.table)
+        self.png = chart_png(self.cmp)
+        img = QtGui.QImage.fromData(self.png, "PNG")
+        self.chart = QtWidgets.QLabel()
+        self.chart.setPixmap(QtGui.QPixmap.fromImage(img).scaledToWidth(460, QtCore.Qt.SmoothTransformation))
+        lay.addWidget(self.chart)
+
+    def _table(self):
+        cmp = self.cmp
+        ctx_keys = list(cmp["context"][0])
+        rows = [METRIC_LABELS[m] for m in cmp["metrics"]] + ctx_keys
+        t = QtWidgets.QTableWidget(len(rows), len(cmp["labels"]))
+        t.setHorizontalHeaderLabels(cmp["labels"])
+        t.setVerticalHeaderLabels(rows)
+        for j in range(len(cmp["labels"])):
+            for i, m in enumerate(cmp["metrics"]):
+                v, s = cmp["values"][m][j], cmp["statuses"][m][j]
+                it = QtWidgets.QTableWidgetItem("%s  %s" % (wording.format_value(v), s))
+                it.setForeground(QtGui.QBrush(QtGui.QColor(wording.status_color(s))))
+                it.setToolTip(wording.status_sentence(s))
+                t.setItem(i, j, it)
+            for i, k in enumerate(ctx_keys):
+                v = cmp["context"][j][k]
+                t.setItem(len(cmp["metrics"]) + i, j, QtWidgets.QTableWidgetItem(
+                    wording.format_value(v) if isinstance(v, float) else str(v)))
+        t.resizeColumnsToContents()
+        t.setMinimumHeight(26 * (len(rows) + 1))
+        return t
+
+    def save_chart(self, path):
+        with open(path, "wb") as fh:
+            fh.write(self.png)
+        return path
+
+    def getStandardButtons(self):  # noqa: N802 - FreeCAD API
+        return int(QtWidgets.QDialogButtonBox.Close)
+
+    def reject(self):
+        return True
+
+    def accept(self):
+        return True
+
+
+def show_compare_panel(analyses):
+    import FreeCADGui
+    panel = ComparePanel(analyses)
+    if FreeCADGui.Control.activeDialog():
+        FreeCADGui.Control.closeDialog()
+    FreeCADGui.Control.showDialog(panel)
+    return panel

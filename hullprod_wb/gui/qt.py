@@ -1,0 +1,14 @@
+"""Qt binding: FreeCAD's PySide shim first, then PySide2, then PySide6."""
+try:
+    from PySide import QtCore, QtGui  # FreeCAD's shim (0.20: PySide2 underneath)
+    try:
+        from PySide import QtWidgets
+    except ImportError:
+        QtWidgets = QtGui
+except ImportError:  # pragma: no cover - outside FreeCAD
+    try:
+        from PySide2 import QtCore, QtGui, QtWidgets
+    except ImportError:
+        from PySide6 import QtCore, QtGui, QtWidgets
+
+__all__ = ["QtCore", "QtGui", "QtWidgets"]

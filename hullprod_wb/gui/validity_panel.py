@@ -1,0 +1,250 @@
+"""Validity and provenance panel of one analysis (a task panel).
+
+Seven signature rows with value, coloured status and reason; areas; evidence; where the
+numbers come from (backend, file, sha256, units, L_ref, faces, software); the per-face
+(plate) table for a BRep; colour-map buttons with the legend; the JSON one click away.
+"""
+import json
+
+from ..app import analysis as app_analysis
+from ..core.constants import METRIC_LABELS, METRICS
+from . import colormaps, wording
+from .legend import make_legend_widget
+from .qt import QtCore, QtGui, QtWidgets
+
+FACE_COLUMNS = ("face", "surface", "area", "share", "I_D", "I_D+", "I_D-", "flat", "single", "elliptic",
+                "saddle", "status")
+
+
+def _item(text, tip=None):
+    it = QtWidgets.QTableWidgetItem(str(text))
+    it.setFlags(it.flags() & ~QtCore.Qt.ItemIsEditable)
+    if tip:
+        it.setToolTip(tip)
+    return it
+
+
+def _fill_tree(parent, value):
+    """Expandable tree of a JSON value under parent (a QTreeWidget or item)."""
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, val in items:
+        node = QtWidgets.QTreeWidgetItem([str(key), "" if isinstance(val, (dict, list)) else json.dumps(val)])
+        if isinstance(parent, QtWidgets.QTreeWidget):
+            parent.addTopLevelItem(node)
+        else:
+            parent.addChild(node)
+        if isinstance(val, (dict, list)):
+            node.setText(1, "{%d}" % len(val) if isinstance(val, dict) else "[%d]" % len(val))
+            _fill_tree(node, val)
+
+
+class ValidityPanel:
+    """Task panel: signature table, provenance, per-face table, colour maps, JSON."""
+
+    def __init__(self, obj):
+        self.obj = obj
+        self.doc = app_analysis.result_document(obj)
+        self.form = QtWidgets.QWidget()
+        self.form.setWindowTitle("HullProd validity and provenance")
+        lay = QtWidgets.QVBoxLayout(self.form)
+        lay.addWidget(self._header())
+        lay.addWidget(self._signature_table())
+        lay.addWidget(self._areas())
+        lay.addWidget(self._maps())
+        if self.doc.get("provenance", {}).get("faces"):
+            lay.addWidget(self._face_table())
+        lay.addWidget(self._provenance())
+        lay.addLayout(self._buttons())
+        self.tree = QtWidgets.QTreeWidget()
+        self.tree.setHeaderLabels(["key", "value"])
+        _fill_tree(self.tree, self.doc)
+        self.tree.setVisible(False)
+        self.tree.setMinimumHeight(220)
+        lay.addWidget(self.tree)
+
+    # -- sections -------------------------------------------------------------------------------
+    def _header(self):
+        o, rl, th = self.obj, self.doc["reference_length"], self.doc["thresholds"]
+        src = o.Source.Label if o.Source else "?"
+        text = ("<b>%s</b> &mdash; %s of <i>%s</i><br>L_ref = %.6g %s (%s)%s<br>h_f = %g, k_f = %g "
+                "(tau_H = %.3g, tau_K = %.3g)" % (
+                    o.Label, "native BRep" if o.Representation == "brep" else "triangle mesh", src,
+                    rl["value"], o.Units, rl["mode"],
+                    "" if rl["mode"] == "automatic" else "; automatic proposal %.6g" % rl["automatic_value"],
+                    th["h_f"], th["k_f"], th["tau_H"], th["tau_K"]))
+        if o.Status != "ok":
+            text += "<br><span style='color:#c0392b'>%s</span>" % o.Status
+        if rl.get("plausibility_warning"):
+            text += "<br><span style='color:#d4a017'>%s</span>" % rl["plausibility_warning"]
+        lab = QtWidgets.QLabel(text)
+        lab.setWordWrap(True)
+        return lab
+
+    def _signature_table(self):
+        t = QtWidgets.QTableWidget(len(METRICS), 4)
+        t.setHorizontalHeaderLabels(["metric", "value", "status", "meaning / reason"])
+        t.verticalHeader().setVisible(False)
+        self.rows = []
+        for i, m in enumerate(METRICS):
+            rec = self.doc["validity"][m]
+            status = rec["status"]
+            t.setItem(i, 0, _item(METRIC_LABELS[m], wording.METRIC_TEXT[m]))
+            t.setItem(i, 1, _item(wording.format_value(rec["value"])))
+            st = _item(status, wording.status_sentence(status) + "\n\nevidence:\n" +
+                       json.dumps(rec.get("evidence", {}), indent=1)[:2000])
+            st.setBackground(QtGui.QBrush(QtGui.QColor(wording.status_color(status))))
+            st.setForeground(QtGui.QBrush(QtGui.QColor("white")))
+            t.setItem(i, 2, st)
+            reason = rec.get("reason") or ""
+            t.setItem(i, 3, _item(wording.status_sentence(status) + (" \u2014 " + reason if reason else ""),
+                                  reason))
+            self.rows.append({"metric": m, "value": rec["value"], "status": status, "reason": reason,
+                              "color": wording.status_color(status)})
+        t.resizeColumnsToContents()
+        t.setColumnWidth(3, 420)
+        t.setMinimumHeight(30 * (len(METRICS) + 1))
+        self.signature_table = t
+        return t
+
+    def _areas(self):
+        ig = self.doc.get("integrals", {})
+        rep, valid = ig.get("represented_area") or 0.0, ig.get("valid_area") or 0.0
+        share = 100.0 * valid / rep if rep else float("nan")
+        ev = self.doc["validity"]["I_D"].get("evidence", {})
+        ev_text = ", ".join("%s = %s" % (k, v) for k, v in list(ev.items())[:6]
+                            if not isinstance(v, (dict, list)))
+        lab = QtWidgets.QLabel("Represented area %.6g %s\u00b2, valid area %.6g (%.2f %%).<br>"
+                               "Evidence (I_D): %s" % (rep, self.obj.Units, valid, share, ev_text or "none recorded"))
+        lab.setWordWrap(True)
+        self.areas_label = lab
+        return lab
+
+    def _maps(self):
+        box = QtWidgets.QGroupBox("Colour map on the hull")
+        v = QtWidgets.QVBoxLayout(box)
+        h = QtWidgets.QHBoxLayout()
+        self.map_buttons = {}
+        for mode in colormaps.MAPS:
+            b = QtWidgets.QPushButton(mode)
+            b.setCheckable(True)
+            b.clicked.connect(lambda checked=False, m=mode: self.set_map(m))
+            h.addWidget(b)
+            self.map_buttons[mode] = b
+        v.addLayout(h)
+        vp = self._vp()
+        self.legend_widget = make_legend_widget(vp.legend if vp is not None and vp.legend else
+                                                colormaps.Legend("no colours yet", "categorical"))
+        v.addWidget(self.legend_widget)
+        self._sync_map_buttons()
+        return box
+
+    def _vp(self):
+        vobj = getattr(self.obj, "ViewObject", None)
+        return getattr(vobj, "Proxy", None) if vobj is not None else None
+
+    def set_map(self, mode):
+        """Show colour map mode on the hull (one click) and its legend here."""
+        self.obj.ViewObject.ColorMap = mode
+        vp = self._vp()
+        if vp is not None and vp.legend is not None:
+            self.legend_widget.set_legend(vp.legend)
+        self._sync_map_buttons()
+
+    def _sync_map_buttons(self):
+        current = getattr(self.obj.ViewObject, "ColorMap", None)
+        for mode, b in self.map_buttons.items():
+            b.setChecked(mode == current)
+
+    def _face_table(self):
+        faces = self.doc["provenance"]["faces"]
+        box = QtWidgets.QGroupBox("Plates: each BRep face on its own")
+        v = QtWidgets.QVBoxLayout(box)
+        t = QtWidgets.QTableWidget(len(faces), len(FACE_COLUMNS))
+        t.setHorizontalHeaderLabels(list(FACE_COLUMNS))
+        t.verticalHeader().setVisible(False)
+        self.face_rows = []
+        for i, f in enumerate(faces):
+            a_c = f.get("a_C") or {}
+            cells = ["Face%d" % f["face"], f.get("surface_type", ""), wording.format_value(f.get("area")),
+                     wording.format_value(f.get("area_share"), 3), wording.format_value(f.get("I_D")),
+                     wording.format_value(f.get("I_D_plus")), wording.format_value(f.get("I_D_minus"))]
+            cells += [wording.format_value(a_c.get(n), 3) for n in ("flat", "single", "elliptic", "saddle")]
+            cells.append(str(f.get("status", "")))
+            for j, text in enumerate(cells):
+                it = _item(text)
+                if j == len(cells) - 1:
+                    it.setBackground(QtGui.QBrush(QtGui.QColor(wording.status_color(text))))
+                    it.setForeground(QtGui.QBrush(QtGui.QColor("white")))
+                    it.setToolTip(wording.status_sentence(text))
+                t.setItem(i, j, it)
+            self.face_rows.append(cells)
+        t.resizeColumnsToContents()
+        t.setMinimumHeight(min(30 * (len(faces) + 1), 260))
+        v.addWidget(t)
+        self.face_table = t
+        return box
+
+    def _provenance(self):
+        d = self.doc
+        inp, sw, prov = d.get("input", {}), d.get("software", {}), d.get("provenance", {})
+        box = QtWidgets.QGroupBox("Where these numbers come from")
+        form = QtWidgets.QFormLayout(box)
+        units = prov.get("units")
+        rows = [
+            ("backend", "%s (%s)" % (self.obj.Backend, "native surface integrals" if self.obj.Representation == "brep"
+                                     else "discrete curvature on triangles")),
+            ("file", inp.get("path") or "FreeCAD object %s" % inp.get("name", "")),
+            ("sha256", inp.get("sha256") or "\u2014 (in-memory shape)"),
+            ("units", json.dumps(units) if isinstance(units, dict) else str(units or self.obj.Units)),
+            ("L_ref", "%s: %s" % (d["reference_length"]["mode"], d["reference_length"]["method"])),
+            ("faces used", ", ".join("Face%d" % f for f in inp.get("faces_used") or []) or "all"),
+            ("software", ", ".join("%s %s" % (k, v) for k, v in sw.items() if v and k != "package")),
+            ("run time", "%.2f s" % self.obj.ComputeSeconds),
+        ]
+        for w in d.get("warnings") or []:
+            rows.append(("warning", w))
+        self.provenance_rows = rows
+        for k, v in rows:
+            lab = QtWidgets.QLabel(str(v))
+            lab.setWordWrap(True)
+            lab.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
+            form.addRow(k, lab)
+        return box
+
+    def _buttons(self):
+        h = QtWidgets.QHBoxLayout()
+        copy = QtWidgets.QPushButton("Copy JSON")
+        copy.setToolTip("copy the full JSON document of this analysis to the clipboard")
+        copy.clicked.connect(self.copy_json)
+        detail = QtWidgets.QPushButton("Technical detail")
+        detail.setCheckable(True)
+        detail.setToolTip("show the whole JSON document as an expandable tree")
+        detail.toggled.connect(lambda on: self.tree.setVisible(on))
+        h.addWidget(copy)
+        h.addWidget(detail)
+        self.detail_button = detail
+        return h
+
+    def copy_json(self):
+        QtWidgets.QApplication.clipboard().setText(self.obj.ResultJSON)
+        return self.obj.ResultJSON
+
+    # -- task dialog ----------------------------------------------------------------------------
+    def getStandardButtons(self):  # noqa: N802 - FreeCAD API
+        return int(QtWidgets.QDialogButtonBox.Close)
+
+    def reject(self):
+        return True
+
+    def accept(self):
+        return True
+
+
+def show_validity_panel(obj):
+    """Open the panel for analysis obj in the task view (closing another open task)."""
+    import FreeCADGui
+    panel = ValidityPanel(obj)
+    if FreeCADGui.Control.activeDialog():
+        FreeCADGui.Control.closeDialog()
+    FreeCADGui.Control.showDialog(panel)
+    return panel

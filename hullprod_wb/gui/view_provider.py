@@ -1,0 +1,209 @@
+"""View provider of HullProdAnalysis: the colour-mapped hull drawn by the analysis itself.
+
+A Coin graph built from the stored fields (points, triangles) with one colour per display
+vertex (SoMaterialBinding PER_VERTEX_INDEXED on an SoIndexedFaceSet) and a screen-fixed
+colour bar. The source object is never drawn on or changed.
+"""
+import numpy as np
+
+from ..app import analysis as app_analysis
+from . import colormaps, legend as legend_mod
+from .icons import icon
+
+DISPLAY_MODE = "Colour map"
+#: Uniform ambient reflectance of the coloured surface.
+AMBIENT = 0.35
+
+
+def face_id_values(obj):
+    """{face number: face-level I_D or None} from the analysis' provenance."""
+    try:
+        faces = app_analysis.result_document(obj).get("provenance", {}).get("faces") or []
+    except Exception:  # no results yet
+        return {}
+    out = {}
+    for rec in faces:
+        status = str(rec.get("status", "VALID"))
+        out[int(rec["face"])] = rec.get("I_D") if status not in ("UNCONVERGED", "SINGULAR", "NOT EVALUATED") else None
+    return out
+
+
+def colors_for(obj, fields, mode):
+    """(n, 3) RGB per display vertex and the Legend for colour map mode (colormaps.MAPS)."""
+    if mode == "Plates" and obj.Representation == "brep" and "face_id" in fields.extra:
+        return colormaps.plate_colors(fields.extra["face_id"], face_id_values(obj))
+    if mode == "Classes":
+        return colormaps.class_colors(fields.class_id)
+    if mode == "Signed":
+        return colormaps.signed_colors(fields.K, fields.valid, fields.lref, obj.Kf)
+    rgb, lg = colormaps.developability_colors(fields.q_D, obj.Kf)
+    if mode == "Plates":
+        lg.note = "plate view needs a BRep with faces; showing the developability density"
+    return rgb, lg
+
+
+class ViewProviderHullProdAnalysis:
+    """Colour maps: Developability (log10 |K| L_ref^2), Classes, Signed (K L_ref^2), Plates."""
+
+    def __init__(self, vobj):
+        vobj.Proxy = self
+        self._add_properties(vobj)
+
+    def _add_properties(self, vobj):
+        if "ColorMap" not in vobj.PropertiesList:
+            vobj.addProperty("App::PropertyEnumeration", "ColorMap", "HullProd", "field shown on the hull")
+            vobj.ColorMap = list(colormaps.MAPS)
+            from ..app import preferences
+            default = preferences.get("DefaultColorMap")
+            vobj.ColorMap = default if default in colormaps.MAPS else colormaps.MAPS[0]
+        if "ShowLegend" not in vobj.PropertiesList:
+            vobj.addProperty("App::PropertyBool", "ShowLegend", "HullProd", "colour bar in the 3D view")
+            vobj.ShowLegend = True
+
+    # -- Coin graph ---------------------------------------------------------------------------
+    def attach(self, vobj):
+        from pivy import coin
+        self.ViewObject = vobj
+        self.Object = vobj.Object
+        self.colors = np.zeros((0, 3))
+        self.legend = None
+        self.probe_marker = None
+        self.root = coin.SoSeparator()
+        offset = coin.SoPolygonOffset()  # drawn just in front of a coincident source surface
+        offset.factor = -1.0
+        offset.units = -1.0
+        hints = coin.SoShapeHints()
+        hints.vertexOrdering = coin.SoShapeHints.COUNTERCLOCKWISE
+        hints.shapeType = coin.SoShapeHints.UNKNOWN_SHAPE_TYPE  # two-sided lighting
+        hints.creaseAngle = 0.9
+        self.binding = coin.SoMaterialBinding()
+        self.binding.value = coin.SoMaterialBinding.PER_VERTEX_INDEXED
+        self.material = coin.SoMaterial()
+        self.coords = coin.SoCoordinate3()
+        self.faceset = coin.SoIndexedFaceSet()
+        self.legend_switch = coin.SoSwitch()
+        self.marker_sep = coin.SoSeparator()
+        for node in (offset, hints, self.binding, self.material, self.coords, self.faceset):
+            self.root.addChild(node)
+        top = coin.SoSeparator()
+        top.addChild(self.root)
+        top.addChild(self.marker_sep)
+        top.addChild(self.legend_switch)
+        vobj.addDisplayMode(top, DISPLAY_MODE)
+        self.rebuild()
+
+    def rebuild(self):
+        """Geometry from the stored fields, then the colours."""
+        obj = getattr(self, "Object", None)
+        if obj is None or not hasattr(self, "coords"):
+            return
+        fields = app_analysis.analysis_fields(obj)
+        self.coords.point.setNum(0)
+        self.faceset.coordIndex.setNum(0)
+        if fields is None or not len(fields.triangles):
+            self.colors = np.zeros((0, 3))
+            self.material.diffuseColor.setNum(0)
+            self.legend_switch.removeAllChildren()
+            return
+        pts = np.asarray(fields.points, float)
+        tri = np.asarray(fields.triangles, np.int64)
+        self.coords.point.setValues(0, len(pts), pts.tolist())
+        idx = np.column_stack([tri, -np.ones(len(tri), np.int64)]).ravel().tolist()
+        self.faceset.coordIndex.setValues(0, len(idx), idx)
+        self.faceset.materialIndex.setValues(0, len(idx), idx)
+        self.recolor(fields)
+
+    def recolor(self, fields=None):
+        """Colours of the current ColorMap, one per display vertex, and the colour bar."""
+        obj = getattr(self, "Object", None)
+        if obj is None or not hasattr(self, "material"):
+            return
+        fields = fields or app_analysis.analysis_fields(obj)
+        if fields is None:
+            return
+        rgb, lg = colors_for(obj, fields, getattr(self.ViewObject, "ColorMap", colormaps.MAPS[0]))
+        self.colors, self.legend = rgb, lg
+        # Only the diffuse colour varies per vertex in Coin; the other material fields are
+        # uniform, so a grey ambient keeps surfaces turned away from the light readable.
+        self.material.diffuseColor.setValues(0, len(rgb), rgb.tolist())
+        self.material.diffuseColor.setNum(len(rgb))
+        self.material.ambientColor.setValue(AMBIENT, AMBIENT, AMBIENT)
+        self.legend_switch.removeAllChildren()
+        self.legend_switch.addChild(legend_mod.build_overlay(lg))
+        from pivy import coin
+        self.legend_switch.whichChild = coin.SO_SWITCH_ALL if getattr(self.ViewObject, "ShowLegend", True) else coin.SO_SWITCH_NONE
+
+    def coin_colors(self):
+        """(k, 3) per-vertex diffuse colours currently in the Coin material (what is drawn)."""
+        return np.array([c.getValue() for c in self.material.diffuseColor.getValues()], float).reshape(-1, 3)
+
+    def show_marker(self, point, radius):
+        """A small sphere at a probed point."""
+        from pivy import coin
+        self.marker_sep.removeAllChildren()
+        mat = coin.SoBaseColor()
+        mat.rgb.setValue(0.05, 0.05, 0.05)
+        tr = coin.SoTranslation()
+        tr.translation.setValue(*[float(x) for x in point])
+        sph = coin.SoSphere()
+        sph.radius = float(radius)
+        for node in (mat, tr, sph):
+            self.marker_sep.addChild(node)
+
+    def clear_marker(self):
+        if hasattr(self, "marker_sep"):
+            self.marker_sep.removeAllChildren()
+
+    # -- FreeCAD hooks ------------------------------------------------------------------------
+    def updateData(self, obj, prop):
+        if prop == "FieldsFile":
+            self.rebuild()
+        elif prop in ("ResultJSON", "Kf"):
+            self.recolor()
+
+    def onChanged(self, vobj, prop):
+        if prop in ("ColorMap", "ShowLegend"):
+            self.recolor()
+
+    def getDisplayModes(self, vobj):
+        return [DISPLAY_MODE]
+
+    def getDefaultDisplayMode(self):
+        return DISPLAY_MODE
+
+    def setDisplayMode(self, mode):
+        return mode
+
+    def getIcon(self):
+        return icon("HullProd_Analyze")
+
+    def doubleClicked(self, vobj):
+        from .validity_panel import show_validity_panel
+        show_validity_panel(vobj.Object)
+        return True
+
+    def setupContextMenu(self, vobj, menu):
+        from .qt import QtGui, QtWidgets
+        action_cls = getattr(QtGui, "QAction", None) or QtWidgets.QAction
+        for mode in colormaps.MAPS:
+            act = action_cls("Colour map: %s" % mode, menu)
+            act.triggered.connect(lambda checked=False, m=mode: setattr(vobj, "ColorMap", m))
+            menu.addAction(act)
+        act = action_cls("Validity and provenance...", menu)
+        act.triggered.connect(lambda checked=False: self.doubleClicked(vobj))
+        menu.addAction(act)
+
+    def onDelete(self, vobj, subelements):
+        return True
+
+    def __getstate__(self):
+        return None
+
+    def __setstate__(self, state):
+        return None
+
+    def dumps(self):
+        return None
+
+    def loads(self, state):
+        return None

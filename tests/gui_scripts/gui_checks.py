@@ -1,0 +1,517 @@
+# GUI checks of the HullProd workbench, run inside the real FreeCAD (xvfb-run -a freecad <this file>).
+# Environment: HULLPROD_GUI_RESULT (JSON written here), HULLPROD_SCREENSHOTS (PNG folder),
+# HULLPROD_SHARED_HULLS (public hull folder, may be absent), HULLPROD_WORK (scratch folder).
+# Every check records into RESULT; the pytest side (tests/test_gui.py) asserts on it.
+import json
+import os
+import sys
+import time
+import traceback
+
+RESULT = {"steps": {}, "errors": [], "timings": {}}
+OUT = os.environ.get("HULLPROD_GUI_RESULT", "/tmp/hullprod_gui_result.json")
+SHOTS = os.environ.get("HULLPROD_SCREENSHOTS", "/tmp/hullprod_screenshots")
+SHARED = os.environ.get("HULLPROD_SHARED_HULLS", "")
+WORK = os.environ.get("HULLPROD_WORK", "/tmp/hullprod_gui_work")
+T0 = time.time()
+
+
+def step(name):
+    """Decorator: run a check, record its result dict or its traceback."""
+    def wrap(func):
+        t = time.time()
+        try:
+            RESULT["steps"][name] = func() or {"ok": True}
+        except Exception:
+            RESULT["steps"][name] = {"exception": traceback.format_exc()}
+        RESULT["timings"][name] = round(time.time() - t, 2)
+        return func
+    return wrap
+
+
+def finish():
+    RESULT["total_seconds"] = round(time.time() - T0, 2)
+    with open(OUT, "w") as fh:
+        json.dump(RESULT, fh, indent=1, default=str)
+    sys.stdout.flush()
+    os._exit(0)
+
+
+try:
+    import numpy as np
+    import FreeCAD
+    import FreeCADGui
+    import Mesh
+    from hullprod_wb.gui.qt import QtCore, QtGui, QtWidgets
+    import hullprod_wb
+    RESULT["package"] = os.path.realpath(os.path.dirname(hullprod_wb.__file__))
+    os.makedirs(SHOTS, exist_ok=True)
+    os.makedirs(WORK, exist_ok=True)
+except Exception:
+    RESULT["errors"].append(traceback.format_exc())
+    finish()
+
+
+def process(ms=50):
+    end = time.time() + ms / 1000.0
+    while time.time() < end:
+        QtWidgets.QApplication.processEvents()
+
+
+def fingerprint(obj):
+    import hashlib
+    if hasattr(obj, "Shape"):
+        geo = obj.Shape.exportBrepToString()
+        extra = [obj.Shape.Area, obj.Shape.Volume]
+    else:
+        pts, tri = obj.Mesh.Topology
+        geo = repr((np.asarray(pts).round(15).tolist(), tri))
+        extra = [obj.Mesh.Area, obj.Mesh.CountFacets]
+    return [hashlib.sha256(geo.encode()).hexdigest(), extra, str(obj.Placement)]
+
+
+def view():
+    return FreeCADGui.ActiveDocument.ActiveView
+
+
+def hull_camera(yaw=30.0, pitch=20.0):
+    """Rear view (the +y, starboard side, z up), turned by yaw about z and pitch about the
+    camera's horizontal axis (negative: from below, showing the bilge)."""
+    v = view()
+    v.setCameraType("Orthographic")
+    v.viewRear()
+    r = v.getCameraOrientation()
+    z = FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), yaw)
+    x = FreeCAD.Rotation(FreeCAD.Vector(1, 0, 0), pitch)
+    v.setCameraOrientation(z.multiply(r).multiply(x))
+    v.fitAll()
+    process(50)
+
+
+def shot(name, w=1000, h=620):
+    FreeCADGui.Selection.clearSelection()  # no green selection highlight on the colours
+    process(20)
+    path = os.path.join(SHOTS, name + ".png")
+    view().saveImage(path, w, h, "White")
+    return path
+
+
+def window_shot(name):
+    """The whole main window with the 3D view pasted in (GL contents do not grab)."""
+    FreeCADGui.Selection.clearSelection()
+    mw = FreeCADGui.getMainWindow()
+    process(100)
+    pix = mw.grab()
+    mdi = mw.findChild(QtWidgets.QMdiArea)
+    sub = mdi.activeSubWindow() if mdi is not None else None
+    if sub is not None:
+        w = sub.widget()
+        pos = w.mapTo(mw, QtCore.QPoint(0, 0))
+        tmp = os.path.join(WORK, "view_for_window.png")
+        view().saveImage(tmp, w.width(), w.height(), "Current")
+        painter = QtGui.QPainter(pix)
+        painter.drawImage(pos, QtGui.QImage(tmp))
+        painter.end()
+    path = os.path.join(SHOTS, name + ".png")
+    pix.save(path)
+    return path
+
+
+def quick_quadrature(p):
+    """Coarse BRep quadrature through the panel's advanced settings: the GUI checks test
+    presentation, not the integrals (the BRep backend's tests do), and stay fast."""
+    p.advanced.setChecked(True)
+    p.order_spin.setValue(3)
+    p.rtol_edit.setText("0.01")
+    p.depth_spin.setValue(1)
+
+
+def colour_check(a):
+    """Colours in the display object: one per display vertex, and how many distinct."""
+    from hullprod_wb.app import analysis_fields
+    from hullprod_wb.gui.colormaps import distinct_colors
+    vp = a.ViewObject.Proxy
+    drawn = vp.coin_colors()
+    n = len(analysis_fields(a).points)
+    return {"n_points": n, "n_colors": len(drawn), "distinct": distinct_colors(drawn),
+            "legend": vp.legend.title, "ticks": [t for _, t in vp.legend.ticks],
+            "entries": [t for _, t in vp.legend.entries]}
+
+
+STATE = {}
+
+
+@step("workbench")
+def _():
+    FreeCADGui.activateWorkbench("HullProdWorkbench")
+    mw = FreeCADGui.getMainWindow()
+    mw.resize(1500, 950)
+    combo = [d for d in mw.findChildren(QtWidgets.QDockWidget) if d.objectName() in ("Combo View", "ComboView")]
+    if combo:
+        mw.resizeDocks(combo, [560], QtCore.Qt.Horizontal)
+    process(100)
+    bars = [tb.objectName() for tb in mw.findChildren(QtWidgets.QToolBar)]
+    menus = [m.title() for m in mw.menuBar().findChildren(QtWidgets.QMenu)]
+    names = ["HullProd_Analyze", "HullProd_ShowDevelopability", "HullProd_ShowClasses",
+             "HullProd_ShowSignedDevelopability", "HullProd_ShowPlates", "HullProd_ValidityPanel",
+             "HullProd_Export", "HullProd_Probe", "HullProd_Compare"]
+    listed = FreeCADGui.listCommands()
+    from hullprod_wb.gui import dialogs
+    dialogs.INTERACTIVE = False  # no modal dialog may block the run
+    tb = [t for t in mw.findChildren(QtWidgets.QToolBar) if t.objectName() == "HullProd"]
+    actions = [a.objectName() or a.text() for a in tb[0].actions()] if tb else []
+    return {"active": FreeCADGui.activeWorkbench().name(), "toolbars": bars,
+            "has_menu": any("HullProd" in m for m in menus), "commands": {n: n in listed for n in names},
+            "toolbar_actions": len([x for x in actions if x]),
+            "icons": {n: not FreeCADGui.getIcon(n).isNull() if hasattr(FreeCADGui, "getIcon") else None
+                      for n in ("HullProd_Analyze",)}}
+
+
+@step("analyze_wigley")
+def _():
+    from hullprod_wb.examples.builtin import half_wigley_shape
+    from hullprod_wb.gui import analyze_panel, dialogs
+    doc = FreeCAD.newDocument("HullProdGUI")
+    src = doc.addObject("Part::Feature", "HalfWigley")
+    src.Shape = half_wigley_shape()
+    doc.recompute()
+    STATE["doc"], STATE["wigley"] = doc, src
+    STATE["wigley_before"] = fingerprint(src)
+    hull_camera()
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.runCommand("HullProd_Analyze")  # nothing selected: an error message, no crash
+    no_sel = [m for m in dialogs.LOG if m[0] == "error"]
+    FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    process(100)
+    p = analyze_panel.LAST_PANEL
+    shown = FreeCADGui.Control.activeDialog()
+    p.explicit_radio.setChecked(True)
+    p.lref_edit.setText("1.0")
+    quick_quadrature(p)
+    window_shot("analyze_panel")
+    texts = {"proposal": p.auto_radio.text(), "method": p.method_label.text(),
+             "advanced_enabled": p.advanced.isEnabled()}
+    made = p.run()
+    FreeCADGui.Control.closeDialog()
+    a = made[0]
+    STATE["a_wigley"] = a
+    hull_camera()
+    return {"panel_shown": bool(shown), "no_selection_error": [m[2] for m in no_sel], **texts,
+            "quadrature": [a.QuadratureOrder, a.QuadratureRtol, a.QuadratureMaxDepth],
+            "status": a.Status, "representation": a.Representation, "lref": a.LrefUsed,
+            "I_D": a.I_D, "I_D_status": a.I_D_Status, "source_visible": src.ViewObject.Visibility}
+
+
+@step("colour_maps_wigley")
+def _():
+    a = STATE["a_wigley"]
+    out = {}
+    for cmd, mode, name in (("HullProd_ShowDevelopability", "Developability", "wigley_developability"),
+                            ("HullProd_ShowClasses", "Classes", "wigley_classes"),
+                            ("HullProd_ShowSignedDevelopability", "Signed", "wigley_signed"),
+                            ("HullProd_ShowPlates", "Plates", "wigley_plates")):
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a)
+        FreeCADGui.runCommand(cmd)
+        process(30)
+        rec = colour_check(a)
+        rec["mode"] = a.ViewObject.ColorMap
+        rec["png"] = shot(name)
+        out[mode] = rec
+    return out
+
+
+@step("validity_panel")
+def _():
+    from hullprod_wb.gui import validity_panel
+    a = STATE["a_wigley"]
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.runCommand("HullProd_ShowDevelopability")
+    orig = validity_panel.show_validity_panel
+    got = {}
+
+    def capture(obj):
+        got["panel"] = orig(obj)
+        return got["panel"]
+    validity_panel.show_validity_panel = capture
+    try:
+        FreeCADGui.runCommand("HullProd_ValidityPanel")
+    finally:
+        validity_panel.show_validity_panel = orig
+    p = got["panel"]
+    process(100)
+    t = p.signature_table
+    cells = [[t.item(i, j).text() for j in range(t.columnCount())] for i in range(t.rowCount())]
+    copied = p.copy_json()
+    clip = QtWidgets.QApplication.clipboard().text()
+    p.detail_button.setChecked(True)
+    tree_top = p.tree.topLevelItemCount()
+    p.detail_button.setChecked(False)
+    p.set_map("Classes")
+    legend_after_click = p.legend_widget.legend.title
+    p.set_map("Developability")
+    path = window_shot("validity_panel")
+    FreeCADGui.Control.closeDialog()
+    return {"rows": cells, "status_colors": [r["color"] for r in p.rows],
+            "provenance": [k for k, _ in p.provenance_rows], "face_rows": getattr(p, "face_rows", []),
+            "json_copied": copied == a.ResultJSON and clip == a.ResultJSON, "tree_top": tree_top,
+            "legend_after_click": legend_after_click, "png": path}
+
+
+@step("probe_wigley")
+def _():
+    from hullprod_wb.gui import probe
+    a = STATE["a_wigley"]
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.runCommand("HullProd_Probe")
+    process(50)
+    panel = probe.ACTIVE
+    from hullprod_wb.examples.builtin import WIGLEY_B, WIGLEY_T
+    z = -0.5 * WIGLEY_T
+    pt = FreeCAD.Vector(0.1, 0.5 * WIGLEY_B * (1 - 0.2 ** 2) * (1 - 0.25), z)
+    x, y = view().getPointOnScreen(pt)
+    h = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea).activeSubWindow().widget().height()
+    r = None
+    tried = []
+    for pos in ((x, y), (x, h - y)):  # getPointOnScreen and getObjectInfo may differ in y origin
+        tried.append(list(pos))
+        r = panel.pick_at(pos)
+        if r is not None:
+            break
+    path = shot("wigley_probe")
+    rows = panel.table.rowCount()
+    FreeCADGui.Control.closeDialog()
+    process(50)
+    return {"result": r, "rows": rows, "tried": tried, "target": [pt.x, pt.y, pt.z], "png": path,
+            "callback_removed": probe.ACTIVE is None}
+
+
+@step("mesh_analysis")
+def _():
+    from hullprod_wb.examples.analytic_meshes import half_wigley_mesh
+    from hullprod_wb.gui import analyze_panel, probe
+    doc = STATE["doc"]
+    V, F = half_wigley_mesh(48, 12)
+    m = doc.addObject("Mesh::Feature", "HalfWigleyMesh")
+    m.Mesh = Mesh.Mesh(V[F].tolist())
+    m.Placement.Base = FreeCAD.Vector(0, 0, -0.15)
+    doc.recompute()
+    before = fingerprint(m)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(m)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    p.explicit_radio.setChecked(True)
+    p.lref_edit.setText("1.0")
+    adv = p.advanced.isEnabled()
+    made = p.run()
+    FreeCADGui.Control.closeDialog()
+    a = made[0]
+    STATE["a_mesh"] = a
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.runCommand("HullProd_ShowDevelopability")
+    cols = colour_check(a)
+    FreeCADGui.runCommand("HullProd_Probe")
+    from hullprod_wb.app import analysis_fields
+    f = analysis_fields(a)
+    tri = f.triangles[len(f.triangles) // 2]
+    r = probe.ACTIVE.probe(a, f.points[tri].mean(axis=0))
+    FreeCADGui.Control.closeDialog()
+    return {"status": a.Status, "representation": a.Representation, "advanced_enabled": adv,
+            "colors": cols, "probe": r, "unchanged": fingerprint(m) == before}
+
+
+@step("compare")
+def _():
+    from hullprod_wb.gui import compare_panel
+    a, b = STATE["a_wigley"], STATE["a_mesh"]
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.Selection.addSelection(b)
+    orig = compare_panel.show_compare_panel
+    got = {}
+
+    def capture(objs):
+        got["panel"] = orig(objs)
+        return got["panel"]
+    compare_panel.show_compare_panel = capture
+    try:
+        FreeCADGui.runCommand("HullProd_Compare")
+    finally:
+        compare_panel.show_compare_panel = orig
+    p = got["panel"]
+    process(100)
+    chart = p.save_chart(os.path.join(SHOTS, "compare_chart.png"))
+    win = window_shot("compare_panel")
+    out = {"flags": p.cmp["flags"], "columns": p.table.columnCount(), "rows": p.table.rowCount(),
+           "chart": chart, "window": win, "pixmap": not p.chart.pixmap().isNull()}
+    FreeCADGui.Control.closeDialog()
+    return out
+
+
+@step("export")
+def _():
+    from hullprod_wb.gui import dialogs
+    a = STATE["a_wigley"]
+    folder = os.path.join(WORK, "export")
+    dialogs.ANSWERS[:] = [folder]
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.runCommand("HullProd_Export")
+    target = os.path.join(folder, a.Label)
+    files = sorted(os.listdir(target)) if os.path.isdir(target) else []
+    return {"files": files, "info": [m[2] for m in dialogs.LOG if m[0] == "info"][-1:]}
+
+
+@step("errors_and_cancel")
+def _():
+    from hullprod_wb.gui import analyze_panel, dialogs
+    from hullprod_wb.app.progress import RunProgress
+    doc, src = STATE["doc"], STATE["wigley"]
+    n_err = len([m for m in dialogs.LOG if m[0] == "error"])
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    p.explicit_radio.setChecked(True)
+    p.lref_edit.setText("-3")
+    bad = p.run()
+    p.lref_edit.setText("1.0")
+    count = len(doc.Objects)
+    # Cancel from the panel while the run reports progress (what Cancel/Esc does).
+    orig = p._on_progress
+
+    def cancel_on_first(fraction, message):
+        orig(fraction, message)
+        p.reject()
+    p._on_progress = cancel_on_first
+    cancelled = p.run()
+    msg = p.message.text()
+    FreeCADGui.Control.closeDialog()
+    errors = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.runCommand("HullProd_Compare")  # nothing selected: a message, no crash
+    compare_err = [m[2] for m in dialogs.LOG if m[0] == "error"][-1]
+    return {"bad_created": len(bad), "errors": errors, "cancel_created": len(cancelled),
+            "objects_unchanged": len(doc.Objects) == count, "cancel_message": msg, "compare_error": compare_err,
+            "RunProgress": RunProgress.__name__}
+
+
+@step("real_hull")
+def _():
+    """A public BRep hull through the GUI; HULLPROD_GUI_FULL=1 takes DTMB 5415 (faces 1, 2,
+    L_ref = L_pp = 5720 mm; minutes), otherwise the one-face WaveBEM Wigley (seconds)."""
+    full = os.environ.get("HULLPROD_GUI_FULL") == "1"
+    name, fname, faces, lref = (("dtmb5415", "dtmb5415_half_overture.igs", ["Face1", "Face2"], "5720") if full
+                                else ("wigley_wavebem", "wigley_half_wavebem.iges", None, None))
+    brep = os.path.join(SHARED, "brep", fname)
+    if not (SHARED and os.path.isfile(brep)):
+        return {"skipped": "public hulls not present"}
+    import Part
+    from hullprod_wb.gui import analyze_panel
+    doc = FreeCAD.newDocument(name)
+    src = doc.addObject("Part::Feature", name)
+    src.Shape = Part.read(brep)
+    doc.recompute()
+    before = fingerprint(src)
+    FreeCADGui.Selection.clearSelection()
+    if faces:
+        FreeCADGui.Selection.addSelection(src, faces)  # the two hull faces, not the transom
+    else:
+        FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    proposal = p.auto_radio.text()
+    if lref:
+        p.explicit_radio.setChecked(True)
+        p.lref_edit.setText(lref)
+    if not full:
+        quick_quadrature(p)
+    t = time.time()
+    made = p.run()
+    seconds = time.time() - t
+    FreeCADGui.Control.closeDialog()
+    a = made[0]
+    hull_camera()
+    out = {"hull": name, "proposal": proposal, "faces": list(a.FacesUsed), "face_count": len(src.Shape.Faces),
+           "selected": faces, "status": a.Status, "seconds": round(seconds, 2), "lref": a.LrefUsed,
+           "values": {m: [getattr(a, m), getattr(a, m + "_Status")] for m in
+                      ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single", "a_elliptic", "a_saddle")},
+           "shots": {}}
+    for cmd, mode in (("HullProd_ShowDevelopability", "developability"), ("HullProd_ShowClasses", "classes"),
+                      ("HullProd_ShowSignedDevelopability", "signed"), ("HullProd_ShowPlates", "plates")):
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a)
+        FreeCADGui.runCommand(cmd)
+        out["shots"][mode] = dict(colour_check(a), png=shot("%s_%s" % (name, mode)))
+    out["unchanged"] = fingerprint(src) == before
+    return out
+
+
+@step("real_mesh_hull")
+def _():
+    mesh = os.path.join(SHARED, "mesh", "dtmb5415_full_coarse.stl")
+    if not (SHARED and os.path.isfile(mesh)):
+        return {"skipped": "public hulls not present"}
+    from hullprod_wb.gui import analyze_panel
+    doc = FreeCAD.newDocument("DTMB5415_mesh")
+    m = doc.addObject("Mesh::Feature", "DTMB5415_mesh")
+    m.Mesh = Mesh.Mesh(mesh)
+    doc.recompute()
+    before = fingerprint(m)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(m)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    made = p.run()
+    FreeCADGui.Control.closeDialog()
+    b = made[0]
+    hull_camera()
+    FreeCADGui.Selection.addSelection(b)
+    FreeCADGui.runCommand("HullProd_ShowDevelopability")
+    dev = dict(colour_check(b), png=shot("dtmb5415_mesh_developability"))
+    FreeCADGui.Selection.addSelection(b)
+    FreeCADGui.runCommand("HullProd_ShowClasses")
+    cls = dict(colour_check(b), png=shot("dtmb5415_mesh_classes"))
+    return {"status": b.Status, "I_D": [b.I_D, b.I_D_Status], "developability": dev, "classes": cls,
+            "unchanged": fingerprint(m) == before}
+
+
+@step("save_reload_gui")
+def _():
+    doc = STATE["doc"]
+    path = os.path.join(WORK, "gui_roundtrip.FCStd")
+    a = STATE["a_wigley"]
+    name, i_d, mode = a.Name, a.I_D, "Classes"
+    a.ViewObject.ColorMap = mode
+    doc.saveAs(path)
+    FreeCAD.closeDocument(doc.Name)
+    d2 = FreeCAD.openDocument(path)
+    process(100)
+    b = d2.getObject(name)
+    vp = b.ViewObject.Proxy
+    rec = colour_check(b)
+    out = {"I_D_same": b.I_D == i_d, "vp_class": type(vp).__name__, "colors": rec,
+           "map": b.ViewObject.ColorMap}
+    FreeCAD.closeDocument(d2.Name)
+    return out
+
+
+@step("preferences")
+def _():
+    from hullprod_wb.app import preferences
+    from hullprod_wb.gui.preferences import PreferencesPage
+    page = PreferencesPage()
+    page.edits["DefaultHf"].setText("0.0002")
+    page.saveSettings()
+    stored = preferences.get("DefaultHf")
+    preferences.reset()
+    page.loadSettings()
+    return {"stored": stored, "reloaded": page.edits["DefaultHf"].text()}
+
+
+finish()
