@@ -113,20 +113,40 @@ def run_batch(cases, settings, out=None, workers=None, scheduler=None, resume=Tr
                        failures)
 
 
+def backend_keywords():
+    """Further keyword options that assess() passes on (to the BRep backend), beyond OPTION_KEYS."""
+    import inspect
+    try:
+        from ..brep.backend import assess_brep
+    except ImportError:
+        return []
+    params = list(inspect.signature(assess_brep).parameters.values())[1:]  # not the source
+    return sorted({p.name for p in params if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+                  - set(OPTION_KEYS) - {"with_fields", "progress"})
+
+
 def split_options(options):
-    """(settings, rest): assessment settings out of keyword options; unknown keys are an error."""
-    unknown = sorted(set(options) - set(OPTION_KEYS))
-    if unknown:
-        raise InputError("unknown option(s) %s; known: %s" % (", ".join(unknown), ", ".join(OPTION_KEYS)))
+    """Batch settings (cases.make_settings) from keyword options.
+
+    OPTION_KEYS are the common settings; any other key must be a keyword of a backend
+    (backend_keywords(), e.g. display_deflection) and is passed on to assess().
+    """
+    extra = {k: v for k, v in options.items() if k not in OPTION_KEYS}
+    if extra:
+        known = backend_keywords()
+        unknown = sorted(set(extra) - set(known))
+        if unknown:
+            raise InputError("unknown option(s) %s; known: %s" % (", ".join(unknown), ", ".join(OPTION_KEYS + tuple(known))))
+    common = {k: v for k, v in options.items() if k in OPTION_KEYS}
     for name in ("lref", "h_f", "k_f", "rtol"):
-        if options.get(name) is not None:
-            check_positive(name, options[name])
+        if common.get(name) is not None:
+            check_positive(name, common[name])
     for name in ("order", "max_depth"):
-        if options.get(name) is not None and int(options[name]) < 1:
-            raise InputError("%s must be a positive integer, got %r" % (name, options[name]))
-    if options.get("backend") not in (None, "mesh", "brep"):
-        raise InputError("backend must be 'mesh', 'brep' or None, got %r" % (options["backend"],))
-    return make_settings(**options)
+        if common.get(name) is not None and int(common[name]) < 1:
+            raise InputError("%s must be a positive integer, got %r" % (name, common[name]))
+    if common.get("backend") not in (None, "mesh", "brep"):
+        raise InputError("backend must be 'mesh', 'brep' or None, got %r" % (common["backend"],))
+    return make_settings(extra=extra, **common)
 
 
 def assess_many(sources, workers=None, scheduler=None, out=None, variants=None, progress=False, resume=True,
@@ -136,18 +156,21 @@ def assess_many(sources, workers=None, scheduler=None, out=None, variants=None, 
     sources: hull files, folders, glob patterns and FreeCAD documents (a path or a list);
     variants: CSV variant table for the documents (one case per row); workers, scheduler,
     out, resume, progress: as run_batch; options: lref, h_f, k_f, backend, faces, order,
-    rtol, max_depth, object (hull object of the documents). Returns the rows as a list of
+    rtol, max_depth, object (hull object of the documents) and backend keywords (e.g.
+    display_deflection). Returns the rows as a list of
     dicts (values typed, None where not established), or a pandas DataFrame when
     as_frame=True (pandas is then required).
     """
     settings = split_options(options)
+    pandas = None
+    if as_frame:
+        try:
+            import pandas
+        except ImportError:
+            raise InputError("as_frame=True needs pandas, which is not installed; use the list of rows") from None
     cases = expand_cases(sources, variants=variants, object_name=settings["object"])
     result = run_batch(cases, settings, out=out, workers=workers, scheduler=scheduler, resume=resume,
                        progress=progress, start_method=start_method)
-    if not as_frame:
+    if pandas is None:
         return result.rows
-    try:
-        import pandas
-    except ImportError:
-        raise InputError("as_frame=True needs pandas, which is not installed; use the list of rows") from None
     return pandas.DataFrame(result.rows, columns=columns(_param_names(cases)))

@@ -23,8 +23,9 @@ DOCUMENT_FORMATS = {".fcstd": "fcstd"}
 #: Names of the optional variant-table column that names each variant.
 VARIANT_NAME_COLUMNS = ("case", "variant", "name")
 
-#: Assessment settings that enter the settings hash (and the assess() call).
-SETTING_KEYS = ("lref", "h_f", "k_f", "backend", "faces", "order", "rtol", "max_depth", "object")
+#: Assessment settings that enter the settings hash (and the assess() call); 'extra' holds
+#: further keyword options of the backends (e.g. the BRep backend's display_deflection).
+SETTING_KEYS = ("lref", "h_f", "k_f", "backend", "faces", "order", "rtol", "max_depth", "object", "extra")
 
 
 @dataclass
@@ -60,8 +61,12 @@ def canonical_json(obj):
 
 
 def make_settings(lref=None, h_f=None, k_f=None, backend=None, faces=None, order=None, rtol=None,
-                  max_depth=None, object=None):
-    """The settings dict of a batch (None entries mean: the backend's default)."""
+                  max_depth=None, object=None, extra=None):
+    """The settings dict of a batch (None entries mean: the backend's default).
+
+    extra: further keyword options passed to assess() (backend-specific), e.g.
+    {'display_deflection': 0.02}.
+    """
     from ..core.constants import DEFAULT_HF, DEFAULT_KF
     return {"lref": None if lref is None else float(lref),
             "h_f": float(DEFAULT_HF if h_f is None else h_f),
@@ -71,7 +76,8 @@ def make_settings(lref=None, h_f=None, k_f=None, backend=None, faces=None, order
             "order": None if order is None else int(order),
             "rtol": None if rtol is None else float(rtol),
             "max_depth": None if max_depth is None else int(max_depth),
-            "object": object}
+            "object": object,
+            "extra": dict(sorted((extra or {}).items()))}
 
 
 def settings_hash(settings):

@@ -34,9 +34,28 @@ def add_parser(subparsers):
     b.add_argument("--start-method", choices=("spawn", "forkserver", "fork"), default="spawn",
                    help="how local worker processes start (default spawn)")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument("--backend-option", action="append", default=[], metavar="KEY=VALUE",
+                   help="further keyword option of the BRep backend, repeatable, e.g. "
+                        "display_deflection=0.02 (coarser display samples: faster when fields are not needed)")
     add_common_options(b)
     b.set_defaults(func=run_batch_command)
     return b
+
+
+def parse_backend_options(items):
+    """['key=value', ...] -> {key: value} with numbers and true/false converted."""
+    from .api import OPTION_KEYS
+    from .cases import _parse_value
+    out = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError("--backend-option takes KEY=VALUE, got %r" % item)
+        if key.strip() in OPTION_KEYS:
+            raise InputError("%s is set by its own option (see --help), not by --backend-option" % key.strip())
+        low = text.strip().lower()
+        out[key.strip()] = {"true": True, "false": False}.get(low, _parse_value(text))
+    return out
 
 
 def run_batch_command(args):
@@ -48,7 +67,8 @@ def run_batch_command(args):
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers applies to local runs; with --scheduler the cluster's workers are used")
     settings = split_options(dict(lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
-                                  faces=parse_faces(args.faces), object=args.object, **quadrature_options(args)))
+                                  faces=parse_faces(args.faces), object=args.object, **quadrature_options(args),
+                                  **parse_backend_options(args.backend_option)))
     cases = expand_cases(args.inputs, variants=args.variants, object_name=args.object)
     result = run_batch(cases, settings, out=args.out, workers=args.workers, scheduler=args.scheduler,
                        resume=not args.no_resume, progress=not args.quiet, start_method=args.start_method)

@@ -36,7 +36,8 @@ class SignatureObjective:
     """Callable x -> signature vector (7,) float with NaN where not established.
 
     make_hull: callable x -> assessable source. options: assess() settings (lref, h_f,
-    k_f, backend, faces, order, rtol, max_depth). cache_size: vectors remembered (least
+    k_f, backend, faces, order, rtol, max_depth, and backend keywords such as
+    display_deflection). cache_size: vectors remembered (least
     recently used are forgotten). on_error: 'raise' re-raises a failure of make_hull or
     assess; 'nan' answers an all-NaN vector and keeps the message in .errors.
     Counters: calls (every call), evaluations (hulls actually assessed).
@@ -63,11 +64,8 @@ class SignatureObjective:
 
     def _assess(self, x):
         from ..api import assess
-        s = self.settings
-        opts = {k: s[k] for k in ("order", "rtol", "max_depth") if s.get(k) is not None}
-        source = self.make_hull(np.asarray(x, dtype=float))
-        return assess(source, lref=s["lref"], h_f=s["h_f"], k_f=s["k_f"], backend=s["backend"],
-                      faces=s["faces"], with_fields=False, **opts)
+        from .worker import assess_options
+        return assess(self.make_hull(np.asarray(x, dtype=float)), **assess_options(self.settings))
 
     def evaluate(self, x):
         """(vector (7,) float, Assessment or None) of x, from the cache when seen before."""

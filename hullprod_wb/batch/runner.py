@@ -15,6 +15,7 @@ Dask: dask.distributed.Client(address); cases are submitted as run_case tasks wi
 input file's bytes scattered alongside, so workers need not share a file system.
 """
 import collections
+import contextlib
 import multiprocessing
 import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -24,6 +25,12 @@ from ..core.errors import InputError
 from .worker import crash_record, run_case, worker_init
 
 START_METHODS = ("spawn", "forkserver", "fork")
+
+#: Environment of local worker processes: one BLAS/OpenMP thread each, as Dask's nanny sets
+#: for its workers. The thread count changes the order of numpy's reductions (and so the
+#: last bits of the sums), so equal settings make local and Dask results bit-identical; it
+#: also keeps N processes from running N x cores threads.
+WORKER_ENVIRON = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 CRASH_MESSAGE = ("the worker process died while assessing this case (a crash in the geometry "
                  "kernel or out of memory); it was isolated by rerunning it alone")
@@ -40,7 +47,36 @@ def run_serial(cases, settings, settings_hash):
         yield run_case(case, settings, settings_hash)
 
 
+def pin_package_path():
+    """Put the folder holding this hullprod_wb first on sys.path.
+
+    Child processes ('spawn', 'forkserver', Dask's nanny) start with a copy of sys.path,
+    and importing FreeCAD puts its Mod folders (possibly another HullProd checkout linked
+    there) in front; pinning makes every worker import the same package as this process.
+    """
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    if not sys.path or sys.path[0] != root:
+        sys.path.insert(0, root)
+
+
+@contextlib.contextmanager
+def worker_environ():
+    """os.environ with WORKER_ENVIRON while worker processes start (restored afterwards)."""
+    saved = {k: os.environ.get(k) for k in WORKER_ENVIRON}
+    os.environ.update(WORKER_ENVIRON)
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def _pool(workers, start_method):
+    pin_package_path()
     return ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(start_method),
                                initializer=worker_init)
 
@@ -57,12 +93,19 @@ def _run_alone(case, settings, settings_hash, start_method):
 
 
 def run_local(cases, settings, settings_hash, workers=None, start_method="spawn"):
-    """Run cases in a pool of `workers` processes (default os.cpu_count())."""
+    """Run cases in a pool of `workers` processes (default os.cpu_count()), each started
+    with WORKER_ENVIRON."""
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise InputError("--workers must be at least 1, got %d" % workers)
     if start_method not in START_METHODS:
         raise InputError("start method must be one of %s, got %r" % (", ".join(START_METHODS), start_method))
+    with worker_environ():
+        yield from _run_pools(cases, settings, settings_hash, workers, start_method)
+
+
+def _run_pools(cases, settings, settings_hash, workers, start_method):
+    """run_local's loop: a pool of workers, and single-worker pools for crash suspects."""
     pending = collections.deque(cases)
     suspects = collections.deque()
     while pending or suspects:

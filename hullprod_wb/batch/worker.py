@@ -29,8 +29,10 @@ def worker_init():
         pass
 
 
-def _assess_options(settings):
+def assess_options(settings):
+    """Keyword arguments of assess() for the batch settings (fields are not computed)."""
     opts = {k: settings[k] for k in ("order", "rtol", "max_depth") if settings.get(k) is not None}
+    opts.update(settings.get("extra") or {})
     return dict(lref=settings.get("lref"), h_f=settings["h_f"], k_f=settings["k_f"],
                 backend=settings.get("backend"), faces=settings.get("faces"), with_fields=False, **opts)
 
@@ -67,7 +69,7 @@ def _local_copy(case, payload, tmpdir):
 def _assess_case(case, settings, path):
     """(assessment document, assessed object name) of a case read from path."""
     from ..api import assess
-    opts = _assess_options(settings)
+    opts = assess_options(settings)
     if case.kind == "file":
         return assess(path, **opts).to_dict(), None
     from .parametric import variant_object
