@@ -17,7 +17,9 @@ def representation_of(source):
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
         return "mesh"
     tname = type(source).__name__
-    if tname == "Mesh" or hasattr(source, "Mesh") and not hasattr(source, "Shape"):
+    if hasattr(source, "Topology") and hasattr(source, "Facets"):  # FreeCAD Mesh.Mesh (MeshObject)
+        return "mesh"
+    if hasattr(source, "Mesh") and not hasattr(source, "Shape"):  # FreeCAD Mesh::Feature
         return "mesh"
     if hasattr(source, "Shape") or hasattr(source, "Faces"):
         return "brep"
