@@ -225,6 +225,27 @@ def test_dask_gives_the_same_table(local_run, family, dask_cluster, tmp_path):
     assert strip == [{k: v for k, v in r.items() if k not in TIMING_COLUMNS} for r in b]
 
 
+def test_shipped_input_on_a_worker_without_the_file(local_run, tmp_path):
+    """A Dask worker that cannot see the input path assesses the shipped bytes and reports
+    the input under its original path, with the same numbers."""
+    from hullprod_wb.batch.cases import Case
+    from hullprod_wb.batch.worker import run_case
+    cases, local, _ = local_run
+    case = next(c for c in cases if c.case_id.startswith(stem_of(0.08, 0.0625)))
+    with open(case.path, "rb") as fh:
+        payload = fh.read()
+    elsewhere = str(tmp_path / "not_here" / os.path.basename(case.path))
+    moved = Case(case.case_id, case.kind, elsewhere, case.sha256, case.representation)
+    record = run_case(moved, settings(), local.settings_hash, payload)
+    assert record["status"] == "ok" and record["assessment"]["input"]["path"] == elsewhere
+    row = by_id(local.rows)[case.case_id]
+    for m in METRICS:
+        # in-process here, one BLAS thread per pool worker there: equal up to summation order
+        assert record["row"][m] == pytest.approx(row[m], rel=1e-12, abs=1e-15)
+    with pytest.raises(FileNotFoundError):
+        open(elsewhere)
+
+
 def test_resume_skips_done_cases(local_run, family, tmp_path):
     cases, first, out = local_run
     before = read_csv(os.path.join(out, "signatures.csv"))

@@ -1,5 +1,6 @@
 """./hullprod batch INPUTS... : signatures of many hulls, locally in parallel or on Dask."""
 import os
+import signal
 import sys
 
 from ..core.errors import InputError
@@ -58,6 +59,10 @@ def parse_backend_options(items):
     return out
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def run_batch_command(args):
     from ..cli import parse_faces, quadrature_options
     from .api import run_batch, split_options
@@ -70,6 +75,7 @@ def run_batch_command(args):
                                   faces=parse_faces(args.faces), object=args.object, **quadrature_options(args),
                                   **parse_backend_options(args.backend_option)))
     cases = expand_cases(args.inputs, variants=args.variants, object_name=args.object)
+    signal.signal(signal.SIGTERM, _interrupt)  # a terminated batch stops its workers as Ctrl-C does
     result = run_batch(cases, settings, out=args.out, workers=args.workers, scheduler=args.scheduler,
                        resume=not args.no_resume, progress=not args.quiet, start_method=args.start_method)
     print("%d case(s): %d evaluated, %d skipped (already done), %d failed in %.1f s"

@@ -81,14 +81,27 @@ def _pool(workers, start_method):
                                initializer=worker_init)
 
 
+def _terminate_workers(pool):
+    """Terminate the worker processes this pool started (each by its own handle)."""
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        if proc.is_alive():
+            proc.terminate()
+
+
 def _run_alone(case, settings, settings_hash, start_method):
     """Run one case in its own single-worker pool; a crash becomes an error record."""
     pool = _pool(1, start_method)
+    finished = False
     try:
-        return pool.submit(run_case, case, settings, settings_hash).result()
-    except BrokenProcessPool:
-        return crash_record(case, settings, settings_hash, CRASH_MESSAGE)
+        try:
+            record = pool.submit(run_case, case, settings, settings_hash).result()
+        except BrokenProcessPool:
+            record = crash_record(case, settings, settings_hash, CRASH_MESSAGE)
+        finished = True
+        return record
     finally:
+        if not finished:
+            _terminate_workers(pool)
         pool.shutdown(wait=True, cancel_futures=True)
 
 
@@ -139,8 +152,10 @@ def _run_pools(cases, settings, settings_hash, workers, start_method):
                     inflight.clear()
                     break
         finally:
-            for fut in inflight:
-                fut.cancel()
+            if inflight:  # interrupted (Ctrl-C, or the caller stopped early): do not wait for running cases
+                for fut in inflight:
+                    fut.cancel()
+                _terminate_workers(pool)
             pool.shutdown(wait=True, cancel_futures=True)
 
 
@@ -176,13 +191,13 @@ def run_dask(cases, settings, settings_hash, scheduler):
     from dask.distributed import as_completed
     own = isinstance(scheduler, str)
     client = connect(scheduler) if own else scheduler
+    inflight = {}  # task key -> (case, future)
     try:
         slots = 2 * max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
         pending = collections.deque(cases)
         remaining = collections.Counter(c.path for c in cases)
         scattered = {}
         ac = as_completed()
-        inflight = {}
 
         def submit():
             case = pending.popleft()
@@ -190,13 +205,13 @@ def run_dask(cases, settings, settings_hash, scheduler):
                 scattered[case.path] = client.scatter(_payload(case), hash=False)
             fut = client.submit(run_case, case, settings, settings_hash, scattered[case.path], pure=False,
                                 key="hullprod-%s-%s" % (case.case_id, os.urandom(4).hex()))
-            inflight[fut.key] = case
+            inflight[fut.key] = (case, fut)
             ac.add(fut)
 
         while pending and len(inflight) < slots:
             submit()
         for fut in ac:
-            case = inflight.pop(fut.key)
+            case, _ = inflight.pop(fut.key)
             try:
                 record = fut.result()
             except Exception as exc:  # the task itself failed: e.g. KilledWorker after repeated crashes
@@ -209,5 +224,7 @@ def run_dask(cases, settings, settings_hash, scheduler):
             if pending:
                 submit()
     finally:
+        if inflight:  # interrupted: withdraw the cases still queued or running on the cluster
+            client.cancel([f for _, f in inflight.values()])
         if own:
             client.close()
