@@ -74,7 +74,10 @@ def run_batch(cases, settings, out=None, workers=None, scheduler=None, resume=Tr
             todo.append(case)
     skipped = len(rows)
     cols = columns(_param_names(cases))
-    run, kind = _runner_for(workers, scheduler, start_method)
+    client = None
+    if isinstance(scheduler, str) and todo:  # connect before touching the output folder
+        client = runner.connect(scheduler)
+    run, kind = _runner_for(workers, client or scheduler, start_method)
     bar = BatchProgress(len(todo), skipped, enabled=progress)
     writer = None
     failures = []
@@ -85,8 +88,9 @@ def run_batch(cases, settings, out=None, workers=None, scheduler=None, resume=Tr
         for case in cases:
             if case.case_id in rows:
                 writer.write(rows[case.case_id])
+    records = run(todo, settings, shash) if todo else iter(())
     try:
-        for record in (run(todo, settings, shash) if todo else ()):
+        for record in records:
             row = record["row"]
             rows[row["case_id"]] = row
             if record["status"] != "ok":
@@ -96,7 +100,11 @@ def run_batch(cases, settings, out=None, workers=None, scheduler=None, resume=Tr
                 writer.write(row)
             bar.update(record)
     finally:
+        if hasattr(records, "close"):
+            records.close()  # stops the workers / withdraws the tasks when interrupted
         bar.close()
+        if client is not None:
+            client.close()
         ordered = [rows[c.case_id] for c in cases if c.case_id in rows]
         if store:
             writer.close()
