@@ -61,6 +61,8 @@ def run_batch(cases, settings, out=None, workers=None, scheduler=None, resume=Tr
     process). scheduler: Dask scheduler address or Client (overrides workers). resume: skip
     cases done in out with the same input hash and settings hash. progress: bar on stderr.
     """
+    if workers is not None and int(workers) < 0:
+        raise InputError("workers must be 0 (this process) or more, got %r" % (workers,))
     t0 = time.monotonic()
     shash = settings_hash(settings)
     store = BatchStore(out) if out else None

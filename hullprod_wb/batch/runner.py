@@ -141,6 +141,9 @@ def _run_pools(cases, settings, settings_hash, workers, start_method):
                     except BrokenProcessPool:
                         broken = True
                         continue
+                    except Exception as exc:  # the task could not run (e.g. its arguments failed to unpickle)
+                        record = crash_record(inflight[fut], settings, settings_hash,
+                                              "%s: %s" % (type(exc).__name__, exc), "TaskError")
                     del inflight[fut]
                     yield record
                 if broken:
@@ -215,7 +218,8 @@ def run_dask(cases, settings, settings_hash, scheduler):
             try:
                 record = fut.result()
             except Exception as exc:  # the task itself failed: e.g. KilledWorker after repeated crashes
-                record = crash_record(case, settings, settings_hash, "%s: %s" % (type(exc).__name__, exc))
+                kind = "WorkerCrash" if type(exc).__name__ == "KilledWorker" else "TaskError"
+                record = crash_record(case, settings, settings_hash, "%s: %s" % (type(exc).__name__, exc), kind)
             fut.release()
             remaining[case.path] -= 1
             if remaining[case.path] == 0:

@@ -114,10 +114,11 @@ def run_case(case, settings, settings_hash, payload=None):
             "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
 
 
-def crash_record(case, settings, settings_hash, message):
-    """Error record of a case whose worker process died (it cannot report itself)."""
-    error = {"type": "WorkerCrash", "message": message, "traceback": None}
-    row = make_row(case, settings_hash, None, "WorkerCrash: " + message, None, None)
+def crash_record(case, settings, settings_hash, message, kind="WorkerCrash"):
+    """Error record of a case that could not report itself (its worker died, or the task
+    failed outside run_case); kind names the failure in the error column."""
+    error = {"type": kind, "message": message, "traceback": None}
+    row = make_row(case, settings_hash, None, "%s: %s" % (kind, message), None, None)
     return {"case": case.to_dict(), "settings": settings, "settings_hash": settings_hash, "status": "error",
             "error": error, "row": row, "assessment": None, "runtime_s": None, "worker": None,
             "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
