@@ -333,6 +333,28 @@ def test_document_errors(tmp_path):
     assert main(["batch", str(doc), "--object", "NoSuchThing", "--out", str(tmp_path / "o")]) == 2
 
 
+def test_document_hull_leaves_open_documents_alone(tmp_path):
+    """DocumentHull works on a private copy: a document of the same file open in this
+    process (as in the GUI) keeps its state, and the file is not modified."""
+    from hullprod_wb.batch import DocumentHull
+    from hullprod_wb.freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    path = tmp_path / "hull.FCStd"
+    make_document(path)
+    digest = sha(path)
+    mine = FreeCAD.openDocument(str(path))
+    try:
+        shape = DocumentHull(str(path), ["R"])([0.5])
+        # Sphere zone radius 0.5 from the pole to the equator plus its disc: 3 pi R^2.
+        assert shape.Area == pytest.approx(3 * math.pi * 0.25, rel=1e-6)
+        assert mine.Name in FreeCAD.listDocuments() and mine.getObject("Hull").Radius.Value == 1.0
+    finally:
+        FreeCAD.closeDocument(mine.Name)
+    assert sha(path) == digest
+    with pytest.raises(InputError, match="expected 1 parameter"):
+        DocumentHull(str(path), ["R"])([0.5, 1.0])
+
+
 def test_progress_line():
     import io
     from hullprod_wb.batch.progress import BatchProgress

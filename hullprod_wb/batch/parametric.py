@@ -2,11 +2,14 @@
 
 A variant sets named parameters, each a spreadsheet cell alias (``L``, or ``Sheet.L`` to
 name the spreadsheet) or an object property (``Body.Length`` with the object's Name or
-Label), on a freshly opened copy of the document, recomputes it and hands back the hull
-object's shape. The document file is never saved: every variant starts from the file on disk.
+Label), on a private copy of the document opened fresh from the file, recomputes it and
+hands back the hull object's shape. The document file is never saved or modified, and a
+document of the same file open in the GUI is not touched.
 """
 import contextlib
 import os
+import shutil
+import tempfile
 
 from ..core.errors import InputError
 from ..freecad_env import import_freecad
@@ -21,7 +24,7 @@ def _object(doc, name):
         return obj
     found = doc.getObjectsByLabel(name)
     if len(found) > 1:
-        raise InputError("%s: more than one object is labelled %r; use its Name" % (doc.FileName, name))
+        raise InputError("%s: more than one object is labelled %r; use its Name" % (_where(doc), name))
     return found[0] if found else None
 
 
@@ -46,25 +49,25 @@ def resolve_parameter(doc, name):
         hits = [(s, c) for s in _sheets(doc) for c in [_alias_cell(s, name)] if c]
         if not hits:
             raise InputError("%s: no spreadsheet has a cell with alias %r (parameter column %r)"
-                             % (doc.FileName, name, name))
+                             % (_where(doc), name, name))
         if len(hits) > 1:
             raise InputError("%s: alias %r exists in several spreadsheets (%s); write Sheet.%s"
-                             % (doc.FileName, name, ", ".join(s.Name for s, _ in hits), name))
+                             % (_where(doc), name, ", ".join(s.Name for s, _ in hits), name))
         return ("alias",) + hits[0]
     owner, prop = name.rsplit(".", 1)
     obj = _object(doc, owner)
     if obj is None:
-        raise InputError("%s: no object named or labelled %r (parameter column %r)" % (doc.FileName, owner, name))
+        raise InputError("%s: no object named or labelled %r (parameter column %r)" % (_where(doc), owner, name))
     if obj.TypeId == SHEET_TYPE:
         cell = _alias_cell(obj, prop)
         if cell:
             return ("alias", obj, cell)
     if prop not in obj.PropertiesList:
-        raise InputError("%s: object %s has no property %r (parameter column %r)" % (doc.FileName, obj.Name, prop, name))
+        raise InputError("%s: object %s has no property %r (parameter column %r)" % (_where(doc), obj.Name, prop, name))
     bound = dict(obj.ExpressionEngine).get(prop)
     if bound is not None:
         raise InputError("%s: %s.%s is driven by the expression %r and would be overwritten on "
-                         "recompute; set what drives it instead" % (doc.FileName, obj.Name, prop, bound))
+                         "recompute; set what drives it instead" % (_where(doc), obj.Name, prop, bound))
     return ("property", obj, prop)
 
 
@@ -77,7 +80,7 @@ def set_parameter(doc, name, value):
     try:
         setattr(owner, key, value)
     except Exception as exc:
-        raise InputError("%s: cannot set %s.%s = %r: %s" % (doc.FileName, owner.Name, key, value, exc)) from None
+        raise InputError("%s: cannot set %s.%s = %r: %s" % (_where(doc), owner.Name, key, value, exc)) from None
 
 
 def _area(obj):
@@ -92,13 +95,13 @@ def pick_hull_object(doc, name=None):
     if name:
         obj = _object(doc, name)
         if obj is None:
-            raise InputError("%s: no object named or labelled %r (--object)" % (doc.FileName, name))
+            raise InputError("%s: no object named or labelled %r (--object)" % (_where(doc), name))
         if not hasattr(obj, "Shape") and not hasattr(obj, "Mesh"):
-            raise InputError("%s: object %s has neither a Part shape nor a mesh" % (doc.FileName, name))
+            raise InputError("%s: object %s has neither a Part shape nor a mesh" % (_where(doc), name))
         return obj
     shaped = [o for o in doc.Objects if getattr(o, "Visibility", True) and _area(o) > 0]
     if not shaped:
-        raise InputError("%s: no visible object with a surface shape; name one with --object" % doc.FileName)
+        raise InputError("%s: no visible object with a surface shape; name one with --object" % _where(doc))
     return max(shaped, key=_area)
 
 
@@ -108,29 +111,46 @@ def recompute(doc):
     bad = [o for o in doc.Objects if "Invalid" in o.State or "Error" in o.State]
     if bad:
         raise InputError("%s: recompute failed for %s" % (
-            doc.FileName, ", ".join("%s (%s)" % (o.Name, ",".join(o.State)) for o in bad)))
+            _where(doc), ", ".join("%s (%s)" % (o.Name, ",".join(o.State)) for o in bad)))
+
+
+#: Document name -> path of the file it is a copy of (for messages).
+_ORIGINAL = {}
+
+
+def _where(doc):
+    return _ORIGINAL.get(doc.Name, doc.FileName)
 
 
 @contextlib.contextmanager
 def open_document(path):
-    """Open path as a fresh, unsaved FreeCAD document; close it afterwards.
+    """Open a private copy of the document at path; close and delete it afterwards.
 
-    A document of the same file already open in this process is closed first, so every
-    caller starts from the file on disk.
+    The copy (same file name, in a temporary folder) keeps the file on disk and any open
+    document of the same file (e.g. in the GUI) untouched. Documents that link other files
+    by relative path are not supported.
     """
     FreeCAD = import_freecad()
     path = os.path.abspath(path)
-    for name, d in list(FreeCAD.listDocuments().items()):
-        if os.path.abspath(d.FileName or "") == path:
-            FreeCAD.closeDocument(name)
+    if not os.path.isfile(path):
+        raise InputError("FreeCAD document not found: %s" % path)
+    tmpdir = tempfile.mkdtemp(prefix="hullprod-variant-")
+    copy = os.path.join(tmpdir, os.path.basename(path))
     try:
-        doc = FreeCAD.openDocument(path)
-    except Exception as exc:
-        raise InputError("cannot open FreeCAD document %s: %s" % (path, " ".join(str(exc).split()))) from None
-    try:
-        yield doc
+        shutil.copyfile(path, copy)
+        try:
+            doc = FreeCAD.openDocument(copy)
+        except Exception as exc:
+            raise InputError("cannot open FreeCAD document %s: %s"
+                             % (path, " ".join(str(exc).replace(copy, path).split()))) from None
+        _ORIGINAL[doc.Name] = path
+        try:
+            yield doc
+        finally:
+            _ORIGINAL.pop(doc.Name, None)
+            FreeCAD.closeDocument(doc.Name)
     finally:
-        FreeCAD.closeDocument(doc.Name)
+        shutil.rmtree(tmpdir, ignore_errors=True)
 
 
 @contextlib.contextmanager
