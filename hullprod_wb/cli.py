@@ -62,6 +62,7 @@ def build_parser():
     a.add_argument("--overwrite", action="store_true", help="allow writing into a non-empty --out folder")
     a.add_argument("--json", action="store_true", help="print only the JSON document on stdout")
     a.add_argument("--no-fields", action="store_true", help="skip the distributed fields")
+    a.add_argument("--report", action="store_true", help="also write report.html into --out")
     a.add_argument("--quiet", action="store_true", help="no progress messages")
     a.set_defaults(func=run_analyze)
 
@@ -100,7 +101,12 @@ def run_analyze(args):
     result = assess(args.input, lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
                     faces=parse_faces(args.faces), with_fields=not args.no_fields or bool(args.out),
                     progress=progress, **quadrature_options(args))
+    if args.report and not args.out:
+        raise InputError("--report writes DIR/report.html: give --out DIR")
     paths = result.save(args.out, overwrite=args.overwrite) if args.out else None
+    if args.report:
+        from .studies.report import write_report
+        paths["report"] = write_report(result, os.path.join(args.out, "report.html"))
     report(result, args, paths)
     return 0
 
