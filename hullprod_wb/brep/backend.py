@@ -91,38 +91,83 @@ def area_cross_check(ff, domain, u_breaks, v_breaks, tau_H, tau_K, area):
             "relative_difference": abs(area - ref) / ref if ref else None}
 
 
+class CombinedQuadrature:
+    """Quadrature of a face made of parts: the face with its singular neighbourhoods
+    excluded, and each neighbourhood quadrant through its graded map. Sums values, errors
+    and counts; converged where every part converged (at its deepest check)."""
+
+    def __init__(self, parts):
+        self.parts = parts
+        finals = [_final(p) for p in parts]
+        self.values = {k: float(sum(f.values[k] for f in finals)) for k in QUANTITIES}
+        self.errors = {k: float(sum(f.errors[k] for f in finals)) for k in QUANTITIES}
+        self.converged = {k: all(f.converged[k] for f in finals) for k in QUANTITIES}
+        self.depth_reached = max(f.depth_reached for f in finals)
+        self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
+                                for p in parts))
+        self.rechecked = any(p.recheck is not None for p in parts)
+        self.recheck = None
+
+    @property
+    def all_converged(self):
+        return all(self.converged.values())
+
+    def integrals(self):
+        v = self.values
+        return SurfaceIntegrals(v["A"], v["A_valid"], v["int_abs_K"], v["int_K_plus"], v["int_K_minus"],
+                                np.array([v[q] for q in QUANTITIES[5:]]))
+
+    def to_dict(self):
+        return {"values": self.values, "errors": self.errors, "converged": self.converged,
+                "depth_reached": self.depth_reached, "n_points": self.n_points, "rechecked": self.rechecked,
+                "parts": [p.to_dict() for p in self.parts]}
+
+
 class FaceAssessment:
     """Everything computed for one face."""
 
-    def __init__(self, number, ff, domain, breaks, degenerate, quad, audits):
+    def __init__(self, number, ff, domain, breaks, degenerate, quadrants, quad, audits):
         self.number, self.ff, self.domain = number, ff, domain
-        self.u_breaks, self.v_breaks = breaks  # knot lines plus graded lines
-        self.degenerate, self.quad, self.audits = degenerate, quad, audits
+        self.u_breaks, self.v_breaks = breaks  # knot lines and neighbourhood box lines
+        self.degenerate, self.quadrants, self.quad, self.audits = degenerate, quadrants, quad, audits
 
     @property
     def result(self):
-        return _final(self.quad)
+        return self.quad
 
 
 def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
-    """Integrate one face with graded refinement at its degenerate points, then audit them."""
+    """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
+    separately through a graded map (singular.GradedQuadrantField), then audited."""
     ff = FaceField(face)
     domain = TrimmedDomain.from_face(face)
     u_breaks, v_breaks = ff.evaluator.continuity_breaks(urange=domain.u_range, vrange=domain.v_range)
     deg = singular.find_degenerate(ff, domain, u_breaks, v_breaks)
-    gu, gv = singular.graded_breaks(deg, domain, u_breaks, v_breaks) if deg else (u_breaks, v_breaks)
-    q = integrate(domain, ff, thresholds.tau_H, thresholds.tau_K, order=opts["order"], rtol=opts["rtol"],
-                  max_depth=opts["max_depth"], u_breaks=gu, v_breaks=gv, progress=progress, recheck=True)
+    quads = singular.neighbourhood_quadrants(deg, domain, u_breaks, v_breaks) if deg else []
+    gu, gv = u_breaks, v_breaks
+    main_field = ff
+    if quads:
+        qu, qv = singular.quadrant_breaks(quads)
+        gu = np.unique(np.concatenate([np.asarray(u_breaks, float), qu]))
+        gv = np.unique(np.concatenate([np.asarray(v_breaks, float), qv]))
+        main_field = singular.ExcludedBoxesField(ff, [q.box for q in quads])
+    kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
+    parts = [integrate(domain, main_field, thresholds.tau_H, thresholds.tau_K, u_breaks=gu, v_breaks=gv,
+                       progress=progress, **kw)]
+    unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0) if quads else None
+    for q in quads:
+        parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,
+                               **kw))
+    quad = CombinedQuadrature(parts)
     audits = []
     if deg and opts.get("audit", True):
-        totals = dict(_final(q).values)
+        totals = dict(quad.values)
         for p in deg.points:
-            audits.append(singular.audit_point(ff, domain, p, u_breaks, v_breaks, totals, lref,
-                                               thresholds.tau_H, thresholds.tau_K, order=opts["order"],
-                                               graded=(gu, gv)))
+            audits.append(singular.audit_point(ff, p, quads, totals, lref, thresholds.tau_H,
+                                               thresholds.tau_K, order=opts["order"]))
         for side in deg.sides:
             audits.append(singular.probe_side(ff, domain, side, u_breaks, v_breaks))
-    return FaceAssessment(number, ff, domain, (gu, gv), deg, q, audits)
+    return FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
 
 
 def _global_converged(faces, quantity, rtol):
@@ -170,7 +215,7 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
             "I_D": vals["I_D"], "I_D_plus": vals["I_D_plus"], "I_D_minus": vals["I_D_minus"],
             "a_C": {n: vals[m] for n, m in zip(CLASS_NAMES, CLASS_METRICS)},
             "status": status.value, "converged": bool(r.all_converged),
-            "points": int(f.quad.n_points + (f.quad.recheck.n_points if f.quad.recheck else 0)),
+            "points": int(f.quad.n_points),
             "depth_reached": int(r.depth_reached), "trimmed": not f.domain.is_rectangle,
             "degenerate": f.degenerate.to_dict(),
         })
@@ -204,7 +249,7 @@ def metric_validity(faces, integrals, values, opts, history):
         evidence = {"error_estimate": sum(f.result.errors.get(num, 0.0) for f in faces),
                     "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
                     "depth_limit": opts["max_depth"], "recheck_depth": opts["max_depth"] + 1,
-                    "rechecked_faces": [f.number for f in faces if f.quad.recheck is not None]}
+                    "rechecked_faces": [f.number for f in faces if f.quad.rechecked]}
         is_K = den == "A_valid"
         if valid <= 0:
             rec = MetricValidity(Status.NOT_EVALUATED, None, "no regular surface area to evaluate",

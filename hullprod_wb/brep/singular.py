@@ -18,8 +18,6 @@ from .trimmed_domain import TrimmedDomain
 DEGENERATE_RTOL = 1e-8
 #: Samples per knot span along each side of the parameter rectangle.
 SIDE_SAMPLES = 8
-#: Graded break lines toward a degenerate point: r0 * 2^-k, k = 0..GRADING_LEVELS.
-GRADING_LEVELS = 36
 #: Nested neighbourhoods of the audit: r0 * 2^-k, k = 0..AUDIT_LEVELS-1.
 AUDIT_LEVELS = 6
 #: Fitted decay power of the excluded |K| integral above which the integral converges.
@@ -120,76 +118,153 @@ def _inside_or_on(domain, U, V):
 
 
 def grading_radius(x0, lo, hi, breaks):
-    """Half the distance from x0 to the nearest other break or end (the grading base r0)."""
+    """Half the distance from x0 to the nearest other break or end (the neighbourhood size r0)."""
     cand = np.concatenate([[lo, hi], np.asarray(breaks, dtype=float)])
     d = np.abs(cand - x0)
     d = d[d > 1e-12 * max(1.0, hi - lo)]
     return 0.5 * float(d.min()) if d.size else 0.5 * (hi - lo)
 
 
-def graded_breaks(deg, domain, u_breaks, v_breaks, levels=GRADING_LEVELS):
-    """Extra break lines r0 2^-k either side of each degenerate point / inside each collapsed side."""
+#: Exponent m of the graded map u = u0 + r s^m of a neighbourhood quadrant.
+GRADING_POWER = 6
+
+
+@dataclass
+class Quadrant:
+    """One quadrant [pu, pu + su ru] x [pv, pv + sv rv] of a point's neighbourhood."""
+
+    pu: float
+    pv: float
+    su: int
+    sv: int
+    ru: float
+    rv: float
+
+    @property
+    def box(self):
+        a, b = sorted((self.pu, self.pu + self.su * self.ru))
+        c, d = sorted((self.pv, self.pv + self.sv * self.rv))
+        return a, b, c, d
+
+
+class GradedQuadrantField:
+    """Field on (s, t) in [0, 1]^2 of a quadrant through the graded map
+    u = pu + su ru s^m, v = pv + sv rv t^m; J is multiplied by the map's Jacobian
+    m^2 ru rv s^(m-1) t^(m-1), which removes an integrable corner singularity of |K| J
+    (rho^-a with a < 2 becomes s^(m(2-a)-2)) and concentrates samples at the corner."""
+
+    def __init__(self, face_field, q, m=GRADING_POWER):
+        self.ff, self.q, self.m = face_field, q, m
+
+    def __call__(self, s, t):
+        q, m = self.q, self.m
+        s = np.asarray(s, dtype=float)
+        t = np.asarray(t, dtype=float)
+        f = self.ff(q.pu + q.su * q.ru * s ** m, q.pv + q.sv * q.rv * t ** m)
+        jac = m * m * q.ru * q.rv * s ** (m - 1) * t ** (m - 1)
+        return {"J": f["J"] * jac, "K": f["K"], "H": f["H"], "regular": f["regular"]}
+
+
+class ExcludedBoxesField:
+    """The face field with J = 0 strictly inside given boxes (integrated separately)."""
+
+    def __init__(self, face_field, boxes):
+        self.ff = face_field
+        self.boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+
+    def __getattr__(self, name):
+        return getattr(self.ff, name)
+
+    def __call__(self, u, v):
+        f = self.ff(u, v)
+        u = np.asarray(u, dtype=float)
+        v = np.asarray(v, dtype=float)
+        inside = np.zeros(u.shape, dtype=bool)
+        for a, b, c, d in self.boxes:
+            inside |= (u > a) & (u < b) & (v > c) & (v < d)
+        if inside.any():
+            f = dict(f)
+            f["J"] = np.where(inside, 0.0, f["J"])
+            f["K"] = np.where(inside, 0.0, f["K"])
+            f["H"] = np.where(inside, 0.0, f["H"])
+            f["regular"] = np.where(inside, True, f["regular"])
+        return f
+
+
+def neighbourhood_quadrants(deg, domain, u_breaks, v_breaks):
+    """Quadrants of the neighbourhoods of degenerate points and hot spots, inside the domain.
+
+    Each point gets up to four quadrants of half-widths r0 (half the distance to the
+    nearest knot line or side); quadrants leaving the parameter range are dropped, and for
+    a trimmed domain a quadrant is kept only if it lies inside (else the point is left to
+    the ordinary adaptive quadrature)."""
     (u0, u1), (v0, v1) = domain.u_range, domain.v_range
-    gu, gv = [], []
-    k = 2.0 ** -np.arange(levels + 1)
+    out = []
     for (pu, pv) in deg.graded_points:
         ru = grading_radius(pu, u0, u1, u_breaks)
         rv = grading_radius(pv, v0, v1, v_breaks)
-        gu += list(pu - ru * k) + list(pu + ru * k)
-        gv += list(pv - rv * k) + list(pv + rv * k)
-    for side in deg.sides:
-        if side in ("v0", "v1"):
-            x = v0 if side == "v0" else v1
-            r = grading_radius(x, v0, v1, v_breaks)
-            gv += list(x + r * k) if side == "v0" else list(x - r * k)
-        else:
-            x = u0 if side == "u0" else u1
-            r = grading_radius(x, u0, u1, u_breaks)
-            gu += list(x + r * k) if side == "u0" else list(x - r * k)
-    gu = np.asarray(gu, dtype=float)
-    gv = np.asarray(gv, dtype=float)
-    gu = gu[(gu > u0) & (gu < u1)]
-    gv = gv[(gv > v0) & (gv < v1)]
-    return (np.unique(np.concatenate([np.asarray(u_breaks, float), gu])),
-            np.unique(np.concatenate([np.asarray(v_breaks, float), gv])))
+        for su in (-1, 1):
+            for sv in (-1, 1):
+                q = Quadrant(pu, pv, su, sv, ru, rv)
+                a, b, c, d = q.box
+                if a < u0 - 1e-12 * (u1 - u0) or b > u1 + 1e-12 * (u1 - u0):
+                    continue
+                if c < v0 - 1e-12 * (v1 - v0) or d > v1 + 1e-12 * (v1 - v0):
+                    continue
+                if not getattr(domain, "is_rectangle", False):
+                    g = np.linspace(0.0, 1.0, 9)
+                    U = np.concatenate([a + (b - a) * g, np.full(9, b), b - (b - a) * g, np.full(9, a)])
+                    V = np.concatenate([np.full(9, c), c + (d - c) * g, np.full(9, d), d - (d - c) * g])
+                    if not _inside_or_on(domain, U, V).all():
+                        continue
+                out.append(q)
+    return out
 
 
-def audit_point(face_field, domain, point, u_breaks, v_breaks, totals, lref, tau_H, tau_K,
-                order=5, rtol=1e-6, max_depth=5, levels=AUDIT_LEVELS, graded=None):
-    """Nested-neighbourhood audit around a degenerate point (u0, v0).
+def quadrant_breaks(quadrants):
+    """Break lines of the quadrant boxes, so that excluded boxes are unions of cells."""
+    us = [x for q in quadrants for x in q.box[:2]]
+    vs = [x for q in quadrants for x in q.box[2:]]
+    return np.asarray(us, dtype=float), np.asarray(vs, dtype=float)
 
-    For boxes B_k = [u0 -+ r_k] x [v0 -+ r_k] clipped to the domain, r_k = r0 2^-k, it
-    integrates the area A_k and E_k = int_{B_k} |K| dA (and K+, K-), samples max |K|, fits
-    E_k ~ r_k^p, and forms I_D, I_D+, I_D- of the complement. u_breaks, v_breaks: the
-    face's knot lines (they set r0); graded: the break lines used inside the boxes. Returns a dict of evidence
-    and a verdict: 'regular' (|K| bounded: parameterisation degeneracy), 'convergent'
-    (unbounded |K|, E_k -> 0 with p > CONVERGENT_POWER), 'divergent' (E_k does not decay),
-    'inconclusive', or 'not_audited' (the neighbourhood crosses a trim curve).
+
+def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=5, rtol=1e-6,
+                max_depth=5, levels=AUDIT_LEVELS, m=GRADING_POWER):
+    """Nested-neighbourhood audit around a degenerate point.
+
+    For the boxes B_k (the point's quadrants shrunk by 2^-k, r_k = r0 2^-k) it integrates the
+    area A_k and E_k = int_{B_k} |K| dA (and K+, K-) through the graded map, samples max |K|,
+    fits E_k ~ r_k^p, and forms I_D, I_D+, I_D- of the complement. Returns evidence and a
+    verdict: 'regular' (|K| bounded: parameterisation degeneracy), 'convergent' (unbounded
+    |K|, E_k -> 0 with p > CONVERGENT_POWER), 'divergent' (E_k does not decay),
+    'inconclusive', or 'not_audited' (no quadrant lies inside the trimmed domain).
     """
-    (u0, u1), (v0, v1) = domain.u_range, domain.v_range
     pu, pv = point
-    ru = grading_radius(pu, u0, u1, u_breaks)
-    rv = grading_radius(pv, v0, v1, v_breaks)
-    if not getattr(domain, "is_rectangle", False):
+    mine = [q for q in quadrants if (q.pu, q.pv) == (pu, pv)]
+    if not mine:
         return {"point": [pu, pv], "verdict": "not_audited",
-                "reason": "the neighbourhood of the point is bounded by trim curves"}
+                "reason": "the neighbourhood of the point is crossed by trim curves"}
     rows = []
     for k in range(levels):
-        s = 2.0 ** -k
-        box = (max(u0, pu - ru * s), min(u1, pu + ru * s), max(v0, pv - rv * s), min(v1, pv + rv * s))
-        sub = TrimmedDomain.rectangle(*box)
-        ub, vb = (np.asarray(b, float) for b in (graded or (u_breaks, v_breaks)))
-        q = integrate(sub, face_field, tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth,
-                      u_breaks=ub[(ub > box[0]) & (ub < box[1])], v_breaks=vb[(vb > box[2]) & (vb < box[3])],
-                      recheck=False)
-        # max |K| on a small probe grid of the box interior
+        sk = 2.0 ** (-k / m)  # s = (r / r0)^(1/m)
+        acc = {"area": 0.0, "int_abs_K": 0.0, "int_K_plus": 0.0, "int_K_minus": 0.0}
+        conv = True
+        for q in mine:
+            res = integrate(TrimmedDomain.rectangle(0.0, sk, 0.0, sk), GradedQuadrantField(face_field, q, m),
+                            tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth, recheck=False)
+            acc["area"] += res.values["A"]
+            for key in ("int_abs_K", "int_K_plus", "int_K_minus"):
+                acc[key] += res.values[key]
+            conv &= bool(res.converged["int_abs_K"])
         g = np.linspace(0.02, 0.98, 9)
-        U, V = np.meshgrid(box[0] + (box[1] - box[0]) * g, box[2] + (box[3] - box[2]) * g, indexing="ij")
-        f = face_field(U.ravel(), V.ravel())
-        Kmax = float(np.nanmax(np.abs(np.where(f["regular"], f["K"], np.nan)))) if f["regular"].any() else None
-        rows.append({"r_u": ru * s, "r_v": rv * s, "area": q.values["A"], "int_abs_K": q.values["int_abs_K"],
-                     "int_K_plus": q.values["int_K_plus"], "int_K_minus": q.values["int_K_minus"],
-                     "max_abs_K": Kmax, "converged": bool(q.converged["int_abs_K"])})
+        kmax = []
+        for q in mine:
+            S, T = np.meshgrid(g * sk, g * sk, indexing="ij")
+            f = GradedQuadrantField(face_field, q, m)(S.ravel(), T.ravel())
+            if f["regular"].any():
+                kmax.append(float(np.nanmax(np.abs(np.where(f["regular"], f["K"], np.nan)))))
+        rows.append({"r_u": mine[0].ru * 2.0 ** -k, "r_v": mine[0].rv * 2.0 ** -k, **acc,
+                     "max_abs_K": max(kmax) if kmax else None, "converged": conv})
     A, absK = totals["A_valid"], totals["int_abs_K"]
     L2 = lref ** 2
     for row in rows:
@@ -205,10 +280,8 @@ def audit_point(face_field, domain, point, u_breaks, v_breaks, totals, lref, tau
     power = float(np.polyfit(np.log(r[ok]), np.log(E[ok]), 1)[0]) if ok.sum() >= 3 else None
     kmax = [row["max_abs_K"] for row in rows if row["max_abs_K"] is not None]
     growth = (kmax[-1] / kmax[0]) if len(kmax) >= 2 and kmax[0] > 0 else 1.0
-    changes = []
     seq = [row["I_D_complement"] for row in rows if row["I_D_complement"] is not None]
-    for a, b in zip(seq[:-1], seq[1:]):
-        changes.append(abs(b - a) / abs(b) if b else 0.0)
+    changes = [abs(b - a) / abs(b) if b else 0.0 for a, b in zip(seq[:-1], seq[1:])]
     if growth < UNBOUNDED_GROWTH:
         verdict = "regular"
     elif power is not None and power > CONVERGENT_POWER:
