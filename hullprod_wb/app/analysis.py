@@ -185,7 +185,6 @@ def _num(x):
 
 def store_results(obj, a, seconds=0.0):
     """Copy an Assessment into obj's output properties (the JSON document included)."""
-    from ..freecad_env import import_freecad
     doc = a.to_dict()
     rl = a.reference_length
     obj.Representation = str(a.input.get("representation") or "")
@@ -214,7 +213,6 @@ def store_results(obj, a, seconds=0.0):
     obj.ResultJSON = json.dumps(doc, indent=1, allow_nan=False)
     if a.fields is not None:
         from .fields_store import save_fields
-        import_freecad()
         folder = tempfile.mkdtemp(prefix="hullprod_")
         try:
             obj.FieldsFile = save_fields(a.fields, os.path.join(folder, "fields.npz"))

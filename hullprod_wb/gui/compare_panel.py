@@ -5,7 +5,7 @@ import io
 from ..app.compare import compare_analyses
 from ..core.constants import METRIC_LABELS
 from . import wording
-from .qt import QtCore, QtGui, QtWidgets
+from .qt import QtCore, QtGui, QtWidgets, close_button
 
 
 def chart_png(cmp, width_in=7.0, height_in=3.2, dpi=100):
@@ -65,10 +65,15 @@ class ComparePanel:
         lay.addWidget(self.flags_label)
         self.table = self._table()
         lay.addWidget(self.table)
-        self.png = chart_png(self.cmp)
-        img = QtGui.QImage.fromData(self.png, "PNG")
         self.chart = QtWidgets.QLabel()
-        self.chart.setPixmap(QtGui.QPixmap.fromImage(img).scaledToWidth(460, QtCore.Qt.SmoothTransformation))
+        try:
+            self.png = chart_png(self.cmp)
+        except ImportError as exc:  # matplotlib is optional: the table still compares
+            self.png = None
+            self.chart.setText("bar chart needs matplotlib (%s)" % exc)
+        else:
+            img = QtGui.QImage.fromData(self.png, "PNG")
+            self.chart.setPixmap(QtGui.QPixmap.fromImage(img).scaledToWidth(460, QtCore.Qt.SmoothTransformation))
         lay.addWidget(self.chart)
 
     def _table(self):
@@ -94,12 +99,14 @@ class ComparePanel:
         return t
 
     def save_chart(self, path):
+        if self.png is None:
+            return None
         with open(path, "wb") as fh:
             fh.write(self.png)
         return path
 
     def getStandardButtons(self):  # noqa: N802 - FreeCAD API
-        return int(QtWidgets.QDialogButtonBox.Close)
+        return close_button()
 
     def reject(self):
         return True

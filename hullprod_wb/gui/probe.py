@@ -7,7 +7,7 @@ interpolation for meshes, labelled as such).
 from ..app import analysis as app_analysis
 from ..app.probe import probe_analysis
 from . import dialogs, wording
-from .qt import QtWidgets
+from .qt import QtWidgets, close_button
 
 #: The active probe panel (scripts and tests drive it).
 ACTIVE = None
@@ -92,6 +92,7 @@ class ProbePanel:
         for j, text in enumerate(cells):
             self.table.setItem(row, j, QtWidgets.QTableWidgetItem(text))
         self.table.item(row, len(cells) - 1).setToolTip(r["method"])
+        self.table.resizeColumnsToContents()
         self.last.setText("point (%.6g, %.6g, %.6g): %s, %s" % (tuple(r["point"]) + (r["class_name"], r["method"])))
         import FreeCAD
         FreeCAD.Console.PrintMessage("HullProd probe %s at (%.6g, %.6g, %.6g): K=%.6g H=%.6g k1=%.6g k2=%.6g "
@@ -115,7 +116,7 @@ class ProbePanel:
             ACTIVE = None
 
     def getStandardButtons(self):  # noqa: N802 - FreeCAD API
-        return int(QtWidgets.QDialogButtonBox.Close)
+        return close_button()
 
     def reject(self):
         self.stop()

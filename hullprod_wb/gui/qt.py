@@ -11,4 +11,10 @@ except ImportError:  # pragma: no cover - outside FreeCAD
     except ImportError:
         from PySide6 import QtCore, QtGui, QtWidgets
 
-__all__ = ["QtCore", "QtGui", "QtWidgets"]
+__all__ = ["QtCore", "QtGui", "QtWidgets", "close_button"]
+
+
+def close_button():
+    """int of QDialogButtonBox.Close for a task panel's getStandardButtons (PySide2 and 6)."""
+    b = QtWidgets.QDialogButtonBox.Close
+    return int(getattr(b, "value", b))

@@ -10,7 +10,7 @@ from ..app import analysis as app_analysis
 from ..core.constants import METRIC_LABELS, METRICS
 from . import colormaps, wording
 from .legend import make_legend_widget
-from .qt import QtCore, QtGui, QtWidgets
+from .qt import QtCore, QtGui, QtWidgets, close_button
 
 FACE_COLUMNS = ("face", "surface", "area", "share", "I_D", "I_D+", "I_D-", "flat", "single", "elliptic",
                 "saddle", "status")
@@ -201,6 +201,12 @@ class ValidityPanel:
             ("software", ", ".join("%s %s" % (k, v) for k, v in sw.items() if v and k != "package")),
             ("run time", "%.2f s" % self.obj.ComputeSeconds),
         ]
+        if prov.get("curvature_method"):
+            rows.append(("curvature", prov["curvature_method"]))
+        prep = prov.get("preparation") or {}
+        if prep:  # mesh: what was welded, removed or flipped before the curvature
+            rows.append(("mesh preparation", ", ".join("%s %s" % (k.replace("_", " "), v) for k, v in prep.items()
+                                                        if isinstance(v, (int, float)) and not isinstance(v, bool))))
         for w in d.get("warnings") or []:
             rows.append(("warning", w))
         self.provenance_rows = rows
@@ -231,7 +237,7 @@ class ValidityPanel:
 
     # -- task dialog ----------------------------------------------------------------------------
     def getStandardButtons(self):  # noqa: N802 - FreeCAD API
-        return int(QtWidgets.QDialogButtonBox.Close)
+        return close_button()
 
     def reject(self):
         return True

@@ -282,6 +282,7 @@ def _():
         if r is not None:
             break
     path = shot("wigley_probe")
+    window_shot("probe_panel")
     rows = panel.table.rowCount()
     FreeCADGui.Control.closeDialog()
     process(50)
