@@ -19,7 +19,7 @@ from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..core.validity import MetricValidity, Status
 from . import singular
-from .display import DISPLAY_DEFLECTION, display_fields, sample_faces
+from .display import DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces
 from .face_field import FaceField
 from .loading import load_brep
 from .provenance import shape_provenance
@@ -335,7 +335,8 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     lref: reference length in the shape's units (None: automatic); faces: 1-based face
     numbers; order, rtol, max_depth: quadrature settings (default 5, 1e-4, 5, rechecked at
     max_depth + 1); audit: nested-neighbourhood audit at degenerate points;
-    display_deflection: tessellation of the display-only fields (default 2e-3 of the size).
+    display_deflection: tessellation of the display-only fields (default 5e-3 of the
+    bounding-box diagonal; 2e-2 when with_fields is False).
     """
     progress = progress or null_progress
     timings = {}
@@ -350,7 +351,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     t = time.perf_counter()
     face_fields = [(n, FaceField(f)) for n, f in inp.faces]
     size = inp.shape.BoundBox.DiagonalLength
-    deflection = display_deflection or DISPLAY_DEFLECTION * size
+    deflection = display_deflection or (DISPLAY_DEFLECTION if with_fields else SAMPLE_DEFLECTION) * size
     samples = sample_faces(face_fields, deflection)
     if samples is None:
         raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")

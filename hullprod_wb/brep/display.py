@@ -10,7 +10,9 @@ from scipy.spatial import cKDTree
 from ..core.fields import DistributedFields
 
 #: Default display deflection as a fraction of the shape's bounding-box diagonal.
-DISPLAY_DEFLECTION = 2e-3
+DISPLAY_DEFLECTION = 5e-3
+#: Coarser deflection when no fields are wanted (the samples then only give the automatic L_ref).
+SAMPLE_DEFLECTION = 2e-2
 
 
 def face_display_mesh(face, deflection, field):
