@@ -53,7 +53,7 @@ def test_icosphere_unit_curvature(pattern, frequency):
     # Max's normals are exact for vertices on a sphere, so the normal differences are the
     # edge vectors and the exact least-squares fit is the identity on every face, at any
     # resolution and for any triangle shape: only rounding remains.
-    assert np.max(np.abs(c.H - 1.0)) < EXACT
+    assert np.max(np.abs(c.H + 1.0)) < EXACT  # outward normals: H = -1/R (eq:brephk sign)
     assert np.max(np.abs(c.K - 1.0)) < EXACT
     assert np.allclose(c.normals, V, atol=EXACT)
     assert not c.boundary.any()
@@ -70,7 +70,8 @@ def test_icosphere_unit_curvature(pattern, frequency):
 
 def test_sphere_of_scattered_points_is_exact():
     """Irregular triangles (convex hull of random points on a sphere): the per-face fit is
-    solved exactly for any edge geometry, so H = 1/R and K = 1/R^2 still hold to rounding."""
+    solved exactly for any edge geometry, so H = -1/R (outward normals) and K = 1/R^2 still hold
+    to rounding."""
     from scipy.spatial import ConvexHull
     rng = np.random.default_rng(3)
     P = rng.normal(size=(400, 3))
@@ -81,7 +82,7 @@ def test_sphere_of_scattered_points_is_exact():
     inward = np.einsum("ij,ij->i", nrm, P[F].mean(axis=1)) < 0
     F[inward] = F[inward][:, ::-1]
     c = vertex_curvature(P, F)
-    assert np.max(np.abs(c.H - 0.4)) < EXACT
+    assert np.max(np.abs(c.H + 0.4)) < EXACT
     assert np.max(np.abs(c.K - 0.16)) < EXACT
 
 
@@ -92,9 +93,10 @@ def test_open_cylinder_single_curvature(pattern):
     c = vertex_curvature(V, F)
     inner = ~c.boundary
     # Each quad of a cylinder grid is planar and symmetric, so the Max normals are radial
-    # and the fitted tensors are rank one along the axis: K = 0, H = 1/(2r) to rounding.
+    # and the fitted tensors are rank one along the axis: K = 0, H = -1/(2r) (outward normals)
+    # to rounding.
     assert np.max(np.abs(c.K[inner])) < EXACT
-    assert np.max(np.abs(c.H[inner] - 0.5)) < EXACT
+    assert np.max(np.abs(c.H[inner] + 0.5)) < EXACT
     assert c.boundary.sum() == 2 * 48
     r = assess_mesh((V, F), lref=2.0)
     v = values(r)
@@ -159,8 +161,9 @@ def test_torus_converges(pattern):
 
 
 def test_torus_principal_directions():
-    """On the torus the principal directions are the parameter directions: k1 = 1/r along
-    the tube (v), k2 = cos v / (R + r cos v) <= 1/4 around the axis (u)."""
+    """On the torus the principal directions are the parameter directions. With outward
+    normals (eq:brephk sign): k2 = -1/r along the tube (v) and k1 = -cos v / (R + r cos v)
+    >= -1/4 around the axis (u)."""
     V, F = torus_mesh(32)
     c = vertex_curvature(V, F)
     u = np.arctan2(V[:, 1], V[:, 0])
@@ -168,10 +171,10 @@ def test_torus_principal_directions():
     rho = np.hypot(V[:, 0], V[:, 1])
     cos_v = (rho - 3.0) / 1.0
     # direction and curvature errors are O(h^2) like the tensor itself: about 1e-2 at n = 32
-    assert np.all(np.abs(np.einsum("ij,ij->i", c.dir2, around)) > np.cos(0.02))
-    assert np.all(np.abs(np.einsum("ij,ij->i", c.dir1, np.cross(c.normals, around))) > np.cos(0.02))
-    assert np.allclose(c.k1, 1.0, atol=0.01)
-    assert np.allclose(c.k2, cos_v / rho, atol=0.01)
+    assert np.all(np.abs(np.einsum("ij,ij->i", c.dir1, around)) > np.cos(0.02))
+    assert np.all(np.abs(np.einsum("ij,ij->i", c.dir2, np.cross(c.normals, around))) > np.cos(0.02))
+    assert np.allclose(c.k2, -1.0, atol=0.01)
+    assert np.allclose(c.k1, -cos_v / rho, atol=0.01)
 
 
 @pytest.mark.parametrize("pattern", PATTERNS)

@@ -184,12 +184,12 @@ def test_orientation_fixed_on_a_copy():
     assert info["winding_flipped_faces"] == int(flip.sum())
     assert info["orientation_changed"] is True
     assert np.array_equal(m.faces, F)                                     # the majority winding kept
-    # the whole sphere inside out: closed, so it is turned outward and H > 0
+    # the whole sphere inside out: closed, so it is turned outward and H < 0 (eq:brephk sign)
     m2 = mesh_from_arrays(V, F[:, ::-1])
     assert m2.metadata["hullprod"]["inverted_closed_pieces"] == 1
     r = assess_mesh((V, G), lref=2.0)
     assert r.validity["I_D"].value == pytest.approx(4.0, rel=1e-10)
-    assert np.allclose(r.fields.H, 1.0, atol=1e-10)
+    assert np.allclose(r.fields.H, -1.0, atol=1e-10)
     assert r.provenance["orientation"]["winding_flipped_faces"] == int(flip.sum())
 
 

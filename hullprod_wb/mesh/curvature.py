@@ -15,11 +15,14 @@
    expressed in (u_i, v_i). Vertex tensors are the averages with the mixed Voronoi corner
    areas of Meyer et al. (2003) (Voronoi for non-obtuse triangles; A/2 at an obtuse corner
    and A/4 at the other two).
-4. Eigen-decomposition of the 2x2 vertex tensor: k1 >= k2 and principal directions;
+4. The fitted tensor is the derivative of the normal, dn = W dx; the shape operator in the
+   convention of the BRep backend (second fundamental form e = n.S_uu, eq:brephk) is -W.
+   Eigen-decomposition of -W per vertex: k1 >= k2 and principal directions;
    H = (k1 + k2)/2, K = k1 k2 (eq:mesh_hk).
 
-With the normals oriented along the face winding a sphere has k1 = k2 = +1/R; reversing
-the winding flips k1, k2 and H and keeps K. Everything is vectorised over faces (three
+Both realizations therefore share one sign convention: with the normals oriented along the
+face winding and pointing out of a sphere, k1 = k2 = -1/R and H = -1/R, as for a BRep sphere
+face with its outward normal; reversing the winding flips k1, k2 and H and keeps K. Everything is vectorised over faces (three
 passes over the corner slots) and accumulated per vertex with np.bincount.
 """
 import os
@@ -342,9 +345,9 @@ def vertex_curvature(vertices, faces, threads=None):
     # 4. Eigen-decomposition of the vertex tensors [[mean + X, Y], [Y, mean - X]].
     usable = has_normal & (wsum > 0)
     wi = np.where(usable, 1.0 / np.where(usable, wsum, 1.0), np.nan)
-    kmean *= wi
-    kx *= wi
-    ky *= wi
+    kmean *= -wi  # shape operator -W: the sign convention of eq:brephk
+    kx *= -wi
+    ky *= -wi
     rad = np.hypot(kx, ky)
     k1 = kmean + rad
     k2 = kmean - rad
