@@ -194,6 +194,13 @@ class ViewProviderHullProdAnalysis:
         menu.addAction(act)
 
     def onDelete(self, vobj, subelements):
+        """Show the source again when its last analysis goes (Analyze may have hidden it)."""
+        obj = vobj.Object
+        src = getattr(obj, "Source", None)
+        if src is not None and getattr(src, "ViewObject", None) is not None:
+            others = [a for a in app_analysis.analyses_in(obj.Document) if a.Name != obj.Name and a.Source == src]
+            if not others:
+                src.ViewObject.Visibility = True
         return True
 
     def __getstate__(self):

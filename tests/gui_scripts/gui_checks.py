@@ -118,12 +118,12 @@ def window_shot(name):
 
 
 def quick_quadrature(p):
-    """Coarse BRep quadrature through the panel's advanced settings: the GUI checks test
-    presentation, not the integrals (the BRep backend's tests do), and stay fast."""
+    """BRep quadrature through the panel's advanced settings (order 6, rtol 2e-4, depth 4:
+    not the defaults, so the test sees them reach the analysis object)."""
     p.advanced.setChecked(True)
-    p.order_spin.setValue(3)
-    p.rtol_edit.setText("0.01")
-    p.depth_spin.setValue(1)
+    p.order_spin.setValue(6)
+    p.rtol_edit.setText("0.0002")
+    p.depth_spin.setValue(4)
 
 
 def colour_check(a):
@@ -326,6 +326,30 @@ def _():
             "colors": cols, "probe": r, "unchanged": fingerprint(m) == before}
 
 
+@step("face_selection")
+def _():
+    """Faces picked in the 3D view (sub-elements 'FaceN') are the only faces assessed."""
+    import Part
+    from hullprod_wb.gui import analyze_panel
+    doc = STATE["doc"]
+    cyl = doc.addObject("Part::Feature", "Cylinder")
+    cyl.Shape = Part.makeCylinder(0.02, 0.1, FreeCAD.Vector(0, 0.2, -0.05))
+    doc.recompute()
+    lateral = [i + 1 for i, f in enumerate(cyl.Shape.Faces) if "Cylinder" in type(f.Surface).__name__][0]
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(cyl, "Face%d" % lateral)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    made = p.run()
+    FreeCADGui.Control.closeDialog()
+    a = made[0]
+    out = {"lateral": lateral, "faces": list(a.Faces), "faces_used": list(a.FacesUsed),
+           "face_count": len(cyl.Shape.Faces), "a_single": [a.a_single, a.a_single_Status]}
+    doc.removeObject(a.Name)
+    cyl.ViewObject.Visibility = False
+    return out
+
+
 @step("compare")
 def _():
     from hullprod_wb.gui import compare_panel
@@ -394,11 +418,29 @@ def _():
     msg = p.message.text()
     FreeCADGui.Control.closeDialog()
     errors = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
+    # Deleting an analysis from the tree shows its hidden source again (when it was the last).
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    tmp = analyze_panel.LAST_PANEL
+    quick_quadrature(tmp)
+    extra = tmp.run()
+    FreeCADGui.Control.closeDialog()
+    others = [o for o in doc.Objects if getattr(o, "Source", None) == src and o.Name != extra[0].Name]
+    src.ViewObject.Visibility = False
+    FreeCADGui.Selection.clearSelection()
+    extra_name = extra[0].Name
+    FreeCADGui.Selection.addSelection(extra[0])
+    FreeCADGui.runCommand("Std_Delete")
+    process(50)
+    source_shown = bool(src.ViewObject.Visibility)
+    deleted = doc.getObject(extra_name) is None
     FreeCADGui.Selection.clearSelection()
     FreeCADGui.runCommand("HullProd_Compare")  # nothing selected: a message, no crash
     compare_err = [m[2] for m in dialogs.LOG if m[0] == "error"][-1]
     return {"bad_created": len(bad), "errors": errors, "cancel_created": len(cancelled),
             "objects_unchanged": len(doc.Objects) == count, "cancel_message": msg, "compare_error": compare_err,
+            "deleted": deleted, "source_shown_after_delete": source_shown, "other_analyses": len(others),
             "RunProgress": RunProgress.__name__}
 
 
