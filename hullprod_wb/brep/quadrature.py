@@ -1,0 +1,977 @@
+"""Adaptive boundary-fitted Gauss-Legendre cubature over a trimmed face domain
+(paper eq:brep_surface_integral, section 4.1; settings of section 5.2).
+
+Integrals over Omega, the face's trimmed (u, v) domain, of phi J du dv for the quantities
+of the signature: represented area A = int J, valid area (regular points), int |K| J,
+int max(K,0) J, int max(-K,0) J over the valid points, and the four curvature-class areas
+of eq:curvature_classes.
+
+Geometry. u is cut at the domain's breakpoints, at the knot lines u_breaks and where the
+trim curves cross the knot lines v_breaks. In each slab every strip lo(u) <= v <= hi(u)
+(further cut at the v_breaks inside it) is a patch mapped from the unit square,
+    u = u(sigma),  v = lo(u) + t (hi(u) - lo(u)),   du dv = u'(sigma) (hi - lo) dsigma dt,
+with u(sigma) affine, or clustered like u - u0 ~ sigma^2 by a cosine map next to a slab
+end where a trim curve has a vertical tangent, so that strip widths ~ sqrt(u - u0) become
+smooth in sigma (a circle's strips become trigonometric polynomials). Integrands are thus
+smooth on each patch and Gauss-Legendre converges fast on the exact trimmed region.
+
+Quadtree. Tensor Gauss-Legendre of the given order on cells of a quadtree over each patch;
+all cells of a level are evaluated in one field call. Error estimate of a cell: |Q(cell) -
+sum of Q over its 4 children| (coarse against fine resolution; it estimates the coarse
+rule's error, so it is conservative for the children's sum, which is what is kept). The
+tolerance of quantity q is tol_q = rtol max(|Q_q|, ZERO_SCALE s_q), s_q = A for areas and
+tau_K A for K integrals. A level whose accepted plus new error estimates fit every tol_q
+ends the refinement; otherwise cells are accepted greedily, smallest errors first, while
+they use at most ACCEPT_FRACTION of the remaining budget tol_q - (accepted errors), and the
+others are split, until max_depth.
+
+Mixed cells. The class indicators are discontinuous, and |K|, max(+-K, 0) have kinks on
+K = 0; Gauss sums across such curves converge only like the cell size (squared). A cell is
+mixed when its samples do not all have one class, or when the sampled range of K (or of H
+where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself, contains -tau_K, 0 or
+tau_K (or -+tau_H). For a parent cell with a mixed child the quadtree decides on the areas
+and the K integrals and class areas are line integrals over the parent:
+- on a line sigma = const, the crossings in t of K - tau_K, K + tau_K, H - tau_H, H + tau_H
+  and K are bracketed between the samples ZS (and around extrema of one sign that get
+  near zero between samples) and refined together (solve_bracketed, one field call per
+  step); each piece between crossings has one class and one sign of K, and J, K J are
+  integrated on it by Gauss-Kronrod 3/7 (on pieces shorter than SHORT_PIECE of the line,
+  over their interpolants at ZS);
+- in sigma the cell is cut where level curves cross its t edges (kinks of the line values)
+  and where they are tangent to the lines (found between lines whose crossing counts
+  differ; square-root ends, so those pieces get a clustered map), and the pieces are
+  integrated by Gauss-Kronrod 3/7, halving those whose error does not fit the cell's share
+  of 0.5 tol, at most class_max_depth times.
+A parent whose lines do not fit is refined in the quadtree like any other. Islands of a
+level curve inside a cell that no sample sees are not resolved.
+"""
+import time
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..core.integrals import SurfaceIntegrals
+from ..core.thresholds import check_positive, classify
+from .trimmed_domain import TrimmedDomain, solve_bracketed
+
+#: Names of the integrated quantities, in the order of the value arrays.
+QUANTITIES = ("A", "A_valid", "int_abs_K", "int_K_plus", "int_K_minus",
+              "A_flat", "A_single", "A_elliptic", "A_saddle")
+NQ = len(QUANTITIES)
+#: Quantities integrated on lines in mixed cells (K integrals and class areas), and
+#: the number of level functions whose crossings cut the lines.
+LINE_Q = slice(2, 9)
+N_LINE_Q = 7
+N_LEVELS = 5
+N_SMOOTH = 5
+#: Quantities below this fraction of their natural scale (A, tau_K A) count as zero.
+ZERO_SCALE = 1e-2
+#: Part of the remaining error budget a level may use up by accepting cells.
+ACCEPT_FRACTION = 0.5
+#: Widening of a cell's sampled K (H) range when testing whether it meets a level.
+STRADDLE_MARGIN = 0.5
+#: Golden-section steps locating the extremum of a level function along a line.
+GOLDEN_STEPS = 30
+#: Relative precision of a tangency cut in sigma (a cut off by d leaves an error ~ d^1.5).
+TANGENT_RTOL = 1e-9
+#: Line pieces are not halved further once halving keeps this much of their error, nor in a
+#: cell that holds this many pieces (the quadtree refines such cells instead).
+STALL_RATIO = 0.45
+MAX_PIECES = 64
+#: Number of candidate cells of largest |K| J kept for the singular-point audit.
+N_PEAKS = 10
+#: At most this many non-regular sample locations are kept.
+MAX_NONREGULAR = 10000
+
+
+@dataclass
+class QuadratureResult:
+    """Integrals over one face with their evidence.
+
+    values, errors, tolerances: dict quantity (see QUANTITIES) -> float; values are the
+    finite candidates, also where not converged. converged: dict quantity -> bool, error
+    estimate within tolerance at depth <= max_depth. n_points: field points evaluated;
+    n_field_calls; depth_reached: deepest quadtree level evaluated; n_cells: leaf cells;
+    n_initial_cells: patches; n_mixed_cells: cells integrated on lines. nonregular_uv
+    (m, 2): (u, v) of sampled non-regular points (at most MAX_NONREGULAR; n_nonregular
+    counts all). unconverged_cells (k, 4): [u_min, u_max, v_min, v_max] of cells left
+    unresolved at the final depth. peak_KJ (N_PEAKS, 3): (u, v, |K| J) of the samples of
+    largest |K| J, one per cell, largest first (candidate singular points). recheck: the
+    integration continued one level deeper (paper section 5.2) when something did not
+    converge and recheck was requested, else None.
+    """
+
+    values: dict
+    errors: dict
+    tolerances: dict
+    converged: dict
+    order: int
+    rtol: float
+    max_depth: int
+    depth_reached: int
+    n_points: int
+    n_field_calls: int
+    n_cells: int
+    n_initial_cells: int
+    n_mixed_cells: int
+    nonregular_uv: np.ndarray
+    n_nonregular: int
+    unconverged_cells: np.ndarray
+    peak_KJ: np.ndarray
+    seconds: float = 0.0
+    recheck: Optional["QuadratureResult"] = None
+
+    @property
+    def all_converged(self):
+        return all(self.converged.values())
+
+    @property
+    def class_areas(self):
+        """(4,) flat, single, elliptic, saddle areas."""
+        return np.array([self.values[q] for q in QUANTITIES[N_SMOOTH:]])
+
+    def integrals(self):
+        """The values as a core SurfaceIntegrals record."""
+        v = self.values
+        return SurfaceIntegrals(v["A"], v["A_valid"], v["int_abs_K"], v["int_K_plus"],
+                                v["int_K_minus"], self.class_areas)
+
+    def to_dict(self):
+        """Plain data (lists for the location arrays)."""
+        out = {k: getattr(self, k) for k in ("values", "errors", "tolerances", "converged", "order",
+                                             "rtol", "max_depth", "depth_reached", "n_points",
+                                             "n_field_calls", "n_cells", "n_initial_cells",
+                                             "n_mixed_cells", "n_nonregular", "seconds")}
+        out["nonregular_uv"] = self.nonregular_uv.tolist()
+        out["unconverged_cells"] = self.unconverged_cells.tolist()
+        out["peak_KJ"] = self.peak_KJ.tolist()
+        out["recheck"] = None if self.recheck is None else self.recheck.to_dict()
+        return out
+
+
+class _Field:
+    """Calls the user's field and normalises its output to (J, K, H, regular) arrays."""
+
+    def __init__(self, field):
+        self.field = field
+        self.n_points = 0
+        self.n_calls = 0
+
+    def __call__(self, u, v):
+        u = np.ascontiguousarray(u, dtype=float).ravel()
+        v = np.ascontiguousarray(v, dtype=float).ravel()
+        if u.size == 0:
+            e = np.empty(0)
+            return e, e, e, np.empty(0, bool)
+        res = self.field(u, v)
+        get = res.get if isinstance(res, dict) else (lambda k, d=None: getattr(res, k, d))
+        try:
+            J, K, H = (np.asarray(get(k), dtype=float).ravel() for k in ("J", "K", "H"))
+        except (TypeError, ValueError) as exc:
+            raise InputError("integrand field must return arrays J, K, H (and regular): %s"
+                             % exc) from exc
+        reg = get("regular", None)
+        reg = np.ones(u.size, bool) if reg is None else np.asarray(reg, dtype=bool).ravel()
+        if not (J.size == K.size == H.size == reg.size == u.size):
+            raise InputError("integrand field returned arrays of sizes %s for %d points"
+                             % ((J.size, K.size, H.size, reg.size), u.size))
+        bad = ~np.isfinite(J)
+        reg = reg & ~bad & np.isfinite(K) & np.isfinite(H)
+        self.n_points += u.size
+        self.n_calls += 1
+        return np.where(bad, 0.0, J), K, H, reg
+
+
+def cluster_map(kind, x):
+    """Map of [0, 1] onto itself and its derivative, (same shapes as x).
+
+    kind 0: x; 1: 1 - cos(pi x / 2), clustered at 0 (c ~ x^2); 2: sin(pi x / 2), clustered
+    at 1; 3: (1 - cos(pi x)) / 2, clustered at both ends. A function with a square-root
+    end, f(c) ~ sqrt(c), becomes smooth in x; for a circle's strip width, trigonometric.
+    """
+    h = 0.5 * np.pi
+    c = np.select([kind == 0, kind == 1, kind == 2],
+                  [x, 1.0 - np.cos(h * x), np.sin(h * x)], 0.5 * (1.0 - np.cos(np.pi * x)))
+    dc = np.select([kind == 0, kind == 1, kind == 2],
+                   [np.ones_like(x), h * np.sin(h * x), h * np.cos(h * x)], h * np.sin(np.pi * x))
+    return c, dc
+
+
+class _Patches:
+    """Unit-square patches (sigma, t) of the trimmed domain (see module docstring).
+
+    Arrays (P,): u0, u1, umap (cluster_map kind: 1 clustered at u0, 2 at u1, 3 both), lo_piece,
+    hi_piece (piece index of the domain, -1 for a constant), lo_v, hi_v (the constants).
+    """
+
+    def __init__(self, domain, u_breaks, v_breaks):
+        self.domain = domain
+        tol = domain.snap_tol
+        ur = domain.u_range
+        vb = np.unique(np.asarray(v_breaks, dtype=float).ravel())
+        vb = vb[(vb > domain.v_range[0]) & (vb < domain.v_range[1])]
+        cuts = [domain.u_breakpoints(), np.asarray(u_breaks, dtype=float).ravel(),
+                domain.v_line_crossings(vb)]
+        cuts = np.unique(np.concatenate(cuts))
+        cuts = cuts[(cuts >= ur[0]) & (cuts <= ur[1])]
+        keep = np.concatenate(([True], np.diff(cuts) > tol))
+        cuts = cuts[keep]
+        dom_bp = domain.breakpoints
+        rows = []
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            k = min(max(np.searchsorted(dom_bp, 0.5 * (a + b)) - 1, 0), len(domain.slabs) - 1)
+            _, _, lo_p, hi_p = domain.slabs[k]
+            if lo_p.size == 0:
+                continue
+            # an end is clustered when a bounding piece has a vertical tangent there
+            act = np.concatenate((lo_p, hi_p))
+            ta = np.any(domain.piece_turns[act, 0] & (np.abs(domain.piece_u_lo[act] - a) <= tol))
+            tb = np.any(domain.piece_turns[act, 1] & (np.abs(domain.piece_u_hi[act] - b) <= tol))
+            um = np.array([0.5 * (a + b)])
+            lo_m = np.array([domain.piece_v(p, um)[0] for p in lo_p])
+            hi_m = np.array([domain.piece_v(p, um)[0] for p in hi_p])
+            pieces = []
+            for lp, hp, lv, hv in zip(lo_p, hi_p, lo_m, hi_m):
+                inner = vb[(vb > lv + tol) & (vb < hv - tol)]
+                bnd_p = np.concatenate(([lp], np.full(inner.size, -1), [hp]))
+                bnd_v = np.concatenate(([np.nan], inner, [np.nan]))
+                for j in range(bnd_p.size - 1):
+                    pieces.append((bnd_p[j], bnd_v[j], bnd_p[j + 1], bnd_v[j + 1]))
+            kind = (1 if ta else 0) + (2 if tb else 0)
+            for (lp, lv, hp, hv) in pieces:
+                rows.append((a, b, kind, lp, lv, hp, hv))
+        if not rows:
+            raise InputError("trimmed domain has no area to integrate over")
+        r = np.array(rows, dtype=float)
+        self.u0, self.u1 = r[:, 0], r[:, 1]
+        self.umap = r[:, 2].astype(int)
+        self.lo_piece, self.hi_piece = r[:, 3].astype(int), r[:, 5].astype(int)
+        cv = domain.piece_const_v
+        self.lo_v = np.where(self.lo_piece >= 0, cv[np.maximum(self.lo_piece, 0)], r[:, 4])
+        self.hi_v = np.where(self.hi_piece >= 0, cv[np.maximum(self.hi_piece, 0)], r[:, 6])
+        # a horizontal piece is a constant boundary too
+        self.lo_piece = np.where(np.isnan(self.lo_v), self.lo_piece, -1)
+        self.hi_piece = np.where(np.isnan(self.hi_v), self.hi_piece, -1)
+
+    @property
+    def size(self):
+        return self.u0.size
+
+    def u_of_sigma(self, pid, sig):
+        """u and du/dsigma for patch ids pid and sigma in [0, 1] (same shapes), by
+        :func:`cluster_map` of the patch's kind over [u0, u1]."""
+        a, w = self.u0[pid], self.u1[pid] - self.u0[pid]
+        c, dc = cluster_map(self.umap[pid], sig)
+        return a + w * c, w * dc
+
+    def bounds(self, pid, u):
+        """lo(u), hi(u) of the patches pid at u (same shapes)."""
+        shape = u.shape
+        pid, u = pid.ravel(), u.ravel()
+        out = []
+        for piece, const in ((self.lo_piece, self.lo_v), (self.hi_piece, self.hi_v)):
+            p = piece[pid]
+            val = const[pid].copy()
+            for k in np.unique(p[p >= 0]):
+                sel = p == k
+                val[sel] = self.domain.piece_v(k, u[sel])
+            out.append(val.reshape(shape))
+        return out[0], out[1]
+
+    def boxes(self, pid, s0, s1, t0, t1):
+        """(n, 4) [u_min, u_max, v_min, v_max] of (sigma, t) cells (v from the cell's u ends)."""
+        sig = np.stack((s0, s1), 1)
+        P = np.stack((pid, pid), 1)
+        u, _ = self.u_of_sigma(P, sig)
+        lo, hi = self.bounds(P, u)
+        v0 = lo + t0[:, None] * (hi - lo)
+        v1 = lo + t1[:, None] * (hi - lo)
+        vv = np.concatenate((v0, v1), 1)
+        return np.stack((u.min(1), u.max(1), vv.min(1), vv.max(1)), 1)
+
+
+def _gauss(order):
+    """Gauss-Legendre nodes and weights on [0, 1], (order,) each."""
+    x, w = np.polynomial.legendre.leggauss(order)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+def _symmetric(x_pos):
+    """Nodes of [-1, 1] (sorted) from their non-negative half."""
+    x_pos = np.asarray(x_pos, dtype=float)
+    return np.sort(np.concatenate((-x_pos[x_pos > 0.0], x_pos)))
+
+
+def _kronrod(x_pos, gauss_pos):
+    """Gauss-Kronrod rule on [0, 1] from the non-negative nodes x_pos of [-1, 1], of which
+    gauss_pos are the Gauss nodes: nodes (m,), Kronrod weights (m,) solving the moment
+    equations of the nodes, Gauss weights (m,) (zero at the Kronrod-only nodes)."""
+    x = _symmetric(x_pos)
+    m = x.size
+    k = np.arange(m)
+    moments = (1.0 - (-1.0) ** (k + 1)) / (k + 1)
+    wk = np.linalg.solve(np.vander(x, m, increasing=True).T, moments)
+    gx = _symmetric(gauss_pos)
+    wg = np.zeros(m)
+    wg[np.searchsorted(x, gx - 1e-12)] = np.polynomial.legendre.leggauss(gx.size)[1]
+    return 0.5 * (x + 1.0), 0.5 * wk, 0.5 * wg
+
+
+#: Gauss-Kronrod 3/7 (exact to degree 11) in sigma along the lines of a piece.
+XK, WK, WG = _kronrod([0.0, 0.4342437493468026, 0.7745966692414834, 0.9604912687080202],
+                      [0.0, 0.7745966692414834])
+#: Lines of a piece in its parameter: next to each end (for tangency detection only) and
+#: at the Kronrod nodes.
+EDGE_XI = 1e-5
+XI9 = np.concatenate(([EDGE_XI], XK, [1.0 - EDGE_XI]))
+#: Samples of a line (fraction of its length): the ends and the 3/7 Kronrod nodes. They
+#: bracket level crossings and carry the degree-8 interpolants of J and K J that integrate
+#: pieces shorter than SHORT_PIECE of the line (against degree 6 on the inner 7 for the
+#: error estimate); longer pieces get their own Gauss-Kronrod rule.
+ZS = np.concatenate(([0.0], XK, [1.0]))
+SHORT_PIECE = 1e-3
+
+
+def _piece_weights(nodes):
+    """(m+1, m) matrix M: for a piece [za, zb] of [0, 1], 0.5 (P(2 zb - 1) - P(2 za - 1)) M
+    with P the Legendre-Vandermonde rows of degree m gives the weights (m,) of the samples
+    at nodes (m,) that integrate their interpolating polynomial over the piece."""
+    m = nodes.size
+    V = np.polynomial.legendre.legvander(2.0 * nodes - 1.0, m - 1)
+    A = np.stack([np.polynomial.legendre.legint(np.eye(m)[j]) for j in range(m)], 1)
+    return A @ np.linalg.inv(V)
+
+
+M_HI = _piece_weights(ZS)
+M_LO = _piece_weights(ZS[1:-1])
+
+
+def _kronrod_error(F, Fk):
+    """Error estimate of Gauss-Kronrod 3/7 sums Fk = sum_k WK_k F_k (n, q) from the node
+    values F (n, 7, q) (on [0, 1], Jacobians included): the raw |G3 - K7| scaled as in
+    QUADPACK, resasc min(1, (200 |G3 - K7| / resasc)^1.5) with resasc = sum_k WK_k |F_k -
+    Fk|, which keeps the raw estimate for rough integrands and lowers it towards the real
+    error of K7 for smooth ones."""
+    raw = np.abs(Fk - np.einsum("nkq,k->nq", F, WG))
+    resasc = np.einsum("nkq,k->nq", np.abs(F - Fk[:, None, :]), WK)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scaled = resasc * np.minimum(1.0, (200.0 * raw / resasc) ** 1.5)
+    return np.where(resasc > 0.0, scaled, raw)
+
+
+def _greedy_accept(err, budget, group=None):
+    """Cells accepted by spending at most ACCEPT_FRACTION of an error budget greedily.
+
+    err (n, q) error estimates; budget (q,), or (g, q) per group with group (n,) int.
+    Within each group cells are taken in increasing order of max_q err/budget while the
+    running sum of err stays within ACCEPT_FRACTION * budget for every q. Returns (n,) bool.
+    """
+    n = err.shape[0]
+    if group is None:
+        group = np.zeros(n, int)
+        budget = np.asarray(budget)[None, :]
+    B = ACCEPT_FRACTION * np.maximum(budget[group], 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(err > 0.0, err / B, 0.0)
+    key = np.nan_to_num(ratio, nan=np.inf).max(1)
+    order = np.lexsort((key, group))
+    g, e = group[order], err[order]
+    csum = np.cumsum(e, 0)
+    first = np.r_[True, g[1:] != g[:-1]]
+    start = np.maximum.accumulate(np.where(first, np.arange(n), 0))
+    base = np.where(start[:, None] > 0, csum[np.maximum(start - 1, 0)], 0.0)
+    fits = np.all(csum - base <= B[order], 1)
+    fails = np.cumsum(~fits)
+    fails_before = fails - np.where(start > 0, fails[np.maximum(start - 1, 0)], 0)
+    out = np.empty(n, bool)
+    out[order] = fits & (fails_before == 0)
+    return out
+
+
+def _segments(cuts, owner):
+    """Consecutive pairs of sorted cut values per owner: (owner, a, b) of non-empty pieces.
+
+    cuts, owner (k,); every owner must have its two end values among the cuts."""
+    o = np.lexsort((cuts, owner))
+    c, w = cuts[o], owner[o]
+    k = np.nonzero((w[:-1] == w[1:]) & (c[1:] > c[:-1]))[0]
+    return w[k], c[k], c[k + 1]
+
+
+def _golden_min(fun, a, b, steps=None):
+    """Minimum of fun on [a, b] (n,) by golden section, all at once: (x (n,), f (n,)).
+
+    fun(x, index) evaluates at x (m,) for the intervals index (m,); one call per step."""
+    r = 0.5 * (np.sqrt(5.0) - 1.0)
+    a, b = np.array(a, dtype=float), np.array(b, dtype=float)
+    idx = np.arange(a.size)
+    c, d = b - r * (b - a), a + r * (b - a)
+    fc, fd = fun(c, idx), fun(d, idx)
+    for _ in range(GOLDEN_STEPS if steps is None else steps):
+        left = ~(fc >= fd)  # NaN counts as larger
+        b = np.where(left, d, b)
+        a = np.where(left, a, c)
+        c_new = np.where(left, b - r * (b - a), d)
+        d_new = np.where(left, c, a + r * (b - a))
+        f_new = fun(np.where(left, c_new, d_new), idx)
+        fc, fd = np.where(left, f_new, fd), np.where(left, fc, f_new)
+        c, d = c_new, d_new
+    take_c = ~(fc >= fd)
+    return np.where(take_c, c, d), np.where(take_c, fc, fd)
+
+
+def _split_pieces(pc, piece, at):
+    """Pieces pc (dict of (n,) cell, sa, sb, kind) cut at sigma values at (k,) of pieces
+    piece (k,); the new ends are clustered (cluster_map), old ends keep their clustering."""
+    if piece.size == 0:
+        return {k: v[:0] for k, v in pc.items()}
+    ids = np.unique(piece)
+    cuts = np.concatenate((pc["sa"][ids], at, pc["sb"][ids]))
+    owner = np.concatenate((ids, piece, ids))
+    w, a, b = _segments(cuts, owner)
+    keep_lo = (a == pc["sa"][w]) & (pc["kind"][w] & 1 > 0)
+    keep_hi = (b == pc["sb"][w]) & (pc["kind"][w] & 2 > 0)
+    lo_tan = (a != pc["sa"][w]) | keep_lo
+    hi_tan = (b != pc["sb"][w]) | keep_hi
+    return dict(cell=pc["cell"][w], sa=a, sb=b, kind=lo_tan.astype(int) + 2 * hi_tan.astype(int),
+                perr=np.full(w.size, np.inf), sib=np.full(w.size, -1))
+
+
+def _halve_pieces(pc, mask, err):
+    """The two halves (in sigma) of the pieces pc[mask]; each keeps its outer clustering,
+    and records its parent's error err[mask] (n,) and a sibling id (its parent's index)."""
+    cell, sa, sb, kind = (pc[k][mask] for k in ("cell", "sa", "sb", "kind"))
+    mid = 0.5 * (sa + sb)
+    return dict(cell=np.repeat(cell, 2), sa=np.stack((sa, mid), 1).ravel(),
+                sb=np.stack((mid, sb), 1).ravel(), kind=np.stack((kind & 1, kind & 2), 1).ravel(),
+                perr=np.repeat(err[mask], 2), sib=np.repeat(np.nonzero(mask)[0], 2))
+
+
+def _concat_pieces(*parts):
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _cat(parts):
+    """Concatenate a list of dicts of arrays key by key."""
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+class _Integrator:
+    """State of one adaptive integration (quadtree over the patches, lines in mixed cells).
+
+    Units of the result are accepted parent cells: their four children's Gauss sums give
+    the values, or the lines for the LINE_Q quantities of mixed cells."""
+
+    def __init__(self, domain, field, tau_H, tau_K, order, rtol, class_max_depth, u_breaks,
+                 v_breaks, progress):
+        self.f = _Field(field)
+        self.tau_H, self.tau_K = tau_H, tau_K
+        self.order, self.rtol = order, rtol
+        self.class_max_depth = class_max_depth
+        self.progress = progress
+        self.x, self.w = _gauss(order)
+        self.patches = _Patches(domain, u_breaks, v_breaks)
+        P = self.patches.size
+        self.nonregular = []
+        self.n_nonregular = 0
+        self.accepted = []  # dicts of arrays of accepted units, one per level
+        self.err_acc = np.zeros(NQ)
+        self.depth = 0
+        self.pending = None  # units left unaccepted at the last level
+        pid = np.arange(P)
+        z, o = np.zeros(P), np.ones(P)
+        self.active = dict(pid=pid, s0=z, s1=o, t0=z, t1=o)
+        self.active.update(self._eval_cells(self.active))
+
+    # -- evaluation ---------------------------------------------------------------------------
+
+    def _thresholds(self, K, H):
+        """(n, 5) level functions K - tau_K, K + tau_K, H - tau_H, H + tau_H, K."""
+        return np.stack((K - self.tau_K, K + self.tau_K, H - self.tau_H, H + self.tau_H, K), -1)
+
+    def _integrands(self, J, K, H, reg):
+        """(..., 9) integrands of QUANTITIES at samples (...)."""
+        cls = classify(K, H, self.tau_H, self.tau_K, reg)
+        Kv = np.where(reg, K, 0.0)
+        Jv = np.where(reg, J, 0.0)
+        out = [J, Jv, Jv * np.abs(Kv), Jv * np.maximum(Kv, 0.0), Jv * np.maximum(-Kv, 0.0)]
+        out += [Jv * (cls == c) for c in range(4)]
+        return np.stack(out, -1), cls
+
+    def _eval_cells(self, c):
+        """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1).
+
+        Returns dict Q (n, 9), mixed (n,) bool, peak (n, 3) (u, v, |K| J at the sample of
+        largest |K| J), pmeas (n,) parameter area."""
+        x, w, n = self.x, self.w, self.order
+        pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
+        nc = pid.size
+        sig = s0[:, None] + (s1 - s0)[:, None] * x[None, :]
+        P2 = np.repeat(pid[:, None], n, 1)
+        u, du = self.patches.u_of_sigma(P2, sig)
+        lo, hi = self.patches.bounds(P2, u)
+        t = t0[:, None] + (t1 - t0)[:, None] * x[None, :]
+        V = lo[:, :, None] + t[:, None, :] * (hi - lo)[:, :, None]
+        U = np.broadcast_to(u[:, :, None], V.shape)
+        J, K, H, reg = (a.reshape(nc, n, n) for a in self.f(U, V))
+        W = ((s1 - s0) * (t1 - t0))[:, None, None] * (w[:, None] * w[None, :])[None] \
+            * (du * (hi - lo))[:, :, None]
+        f, cls = self._integrands(J, K, H, reg)
+        Q = np.einsum("cij,cijq->cq", W, f)
+        bad = ~reg
+        nb = int(bad.sum())
+        if nb:
+            self.n_nonregular += nb
+            have = sum(len(a) for a in self.nonregular)
+            if have < MAX_NONREGULAR:
+                self.nonregular.append(np.stack((U[bad], V[bad]), 1)[:MAX_NONREGULAR - have])
+        KJ = np.where(reg, np.abs(K) * J, -1.0).reshape(nc, -1)
+        k = KJ.argmax(1)
+        ar = np.arange(nc)
+        peak = np.stack((U.reshape(nc, -1)[ar, k], V.reshape(nc, -1)[ar, k], KJ[ar, k]), 1)
+        return dict(Q=Q, mixed=self._mixed(cls, K, H, reg), peak=peak, pmeas=W.sum((1, 2)))
+
+    def _mixed(self, cls, K, H, reg):
+        """(n,) bool: cells (n, o, o samples) that may meet a class boundary or K = 0."""
+        nc = cls.shape[0]
+        cls, reg = cls.reshape(nc, -1), reg.reshape(nc, -1)
+        anyreg = reg.any(1)
+        out = np.where(reg, cls, 99).min(1) != np.where(reg, cls, -99).max(1)
+
+        def widened(A):
+            A = A.reshape(nc, -1)
+            lo = np.where(reg, A, np.inf).min(1)
+            hi = np.where(reg, A, -np.inf).max(1)
+            m = STRADDLE_MARGIN * np.where(anyreg, hi - lo, 0.0)
+            return lo - m, hi + m
+
+        def meets(lo, hi, *levels):
+            return np.any([(lo <= x) & (hi >= x) for x in levels], 0)
+
+        klo, khi = widened(K)
+        hlo, hhi = widened(H)
+        tk, th = self.tau_K, self.tau_H
+        out |= meets(klo, khi, -tk, 0.0, tk) | (klo <= tk) & (khi >= -tk) & meets(hlo, hhi, -th, th)
+        return anyreg & out
+
+    # -- quadtree -----------------------------------------------------------------------------
+
+    def _tolerance(self, Q):
+        """tol_q = rtol max(|Q_q|, ZERO_SCALE scale_q) for all quantities, (9,)."""
+        A = abs(Q[0])
+        scale = np.full(NQ, A)
+        scale[2:5] *= self.tau_K
+        return self.rtol * np.maximum(np.abs(Q), ZERO_SCALE * scale)
+
+    def refine_to(self, depth_limit):
+        """Refine level by level until converged or depth_limit is reached."""
+        while self.active["pid"].size and self.depth < depth_limit:
+            a = self.active
+            na = a["pid"].size
+            sm = 0.5 * (a["s0"] + a["s1"])
+            tm = 0.5 * (a["t0"] + a["t1"])
+            ch = dict(pid=np.repeat(a["pid"], 4),
+                      s0=np.stack((a["s0"], sm, a["s0"], sm), 1).ravel(),
+                      s1=np.stack((sm, a["s1"], sm, a["s1"]), 1).ravel(),
+                      t0=np.stack((a["t0"], a["t0"], tm, tm), 1).ravel(),
+                      t1=np.stack((tm, tm, a["t1"], a["t1"]), 1).ravel())
+            ch.update(self._eval_cells(ch))
+            self.depth += 1
+            last = self.depth >= depth_limit
+            unit = {k: a[k] for k in ("pid", "s0", "s1", "t0", "t1")}
+            unit["Q"] = ch["Q"].reshape(na, 4, NQ).sum(1)
+            unit["mixed"] = ch["mixed"].reshape(na, 4).any(1)
+            unit["pmeas"] = ch["pmeas"].reshape(na, 4).sum(1)
+            pk = ch["peak"].reshape(na, 4, 3)
+            unit["peak"] = pk[np.arange(na), pk[:, :, 2].argmax(1)]
+            unit["depth"] = np.full(na, self.depth)
+            err = np.abs(a["Q"] - unit["Q"])
+            frac = unit["Q"][:, 5:] / np.maximum(unit["Q"][:, :1], 1e-300)
+            err[:, 5:] = err[:, :1] * np.abs(frac)  # area error shared among the classes
+            mixed = unit["mixed"]
+            err_tree = err.copy()
+            err_tree[mixed, 2:N_SMOOTH] = 0.0  # K integrals of mixed cells: from the lines
+            Qtot = sum((p["Q"].sum(0) for p in self.accepted), unit["Q"].sum(0))
+            tol = self._tolerance(Qtot)
+            budget = tol - self.err_acc
+            if np.all(err_tree.sum(0) <= budget):
+                accept = np.ones(na, bool)
+            else:
+                accept = _greedy_accept(err_tree[:, :N_SMOOTH], budget[:N_SMOOTH])
+            lined = mixed & (accept | last)
+            if lined.any():
+                P_tot = sum((p["pmeas"].sum() for p in self.accepted), unit["pmeas"].sum())
+                sub = {k: v[lined] for k, v in unit.items()}
+                share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
+                val, lerr, good = self._lines(sub, 0.5 * share[:, LINE_Q] * tol[None, LINE_Q])
+                unit["Q"][lined, LINE_Q] = val
+                err[lined, LINE_Q] = lerr
+                accept[np.nonzero(lined)[0][~good]] = False
+            unit["err"] = err
+            if accept.any():
+                self.err_acc = self.err_acc + err[accept].sum(0)
+                self.accepted.append({k: v[accept] for k, v in unit.items()})
+            self.pending = {k: v[~accept] for k, v in unit.items()} if last else None
+            r4 = np.repeat(~accept, 4)
+            self.active = {k: v[r4] for k, v in ch.items()}
+            if self.progress is not None:
+                self.progress(min(1.0, self.depth / float(depth_limit + 1)),
+                              "quadrature depth %d: %d of %d cells refined"
+                              % (self.depth, int((~accept).sum()), na))
+
+    @staticmethod
+    def _share(Q, pmeas, Qtot, P_tot):
+        """Part (n, 9) of each quantity's tolerance that cells with integrals Q (n, 9) and
+        parameter areas pmeas (n,) stand for: half by their quantity's share, half by the
+        mean of their area and parameter-area shares."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            own = np.nan_to_num(np.abs(Q) / np.abs(Qtot)[None, :], nan=0.0, posinf=0.0)
+        place = 0.5 * (np.maximum(Q[:, 0], 0.0) / max(abs(Qtot[0]), 1e-300)
+                       + pmeas / max(P_tot, 1e-300))
+        return 0.5 * (np.minimum(own, 1.0) + place[:, None])
+
+    # -- lines in mixed cells -----------------------------------------------------------------
+
+    def _crossings(self, point, x0, x1):
+        """Zeros of the four level functions along segments x in [x0, x1] (n,).
+
+        point(x, i) -> (u, v) maps parameters x (m,) of segments i (m,) to the plane.
+        Brackets are the sign changes between the samples at ZS, plus, where three
+        samples of one sign approach zero in the middle and their parabola gets within
+        half-way of zero, the two sides of the extremum found by golden section when it has
+        the other sign (two crossings between neighbouring samples). All are refined at once
+        (one field call per step of solve_bracketed). Returns segment index (k,), level
+        index (k,), x (k,) and J, K J at the samples ((n, 9) each, 0 where not regular)."""
+        n = x0.size
+        xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
+        J, K, H, reg = self.f(*point(xs.ravel(), np.repeat(np.arange(n), ZS.size)))
+        G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, ZS.size, N_LEVELS)
+        Js = np.where(reg, J, 0.0).reshape(n, -1)
+        KJs = np.where(reg, K * J, 0.0).reshape(n, -1)
+        pos = G > 0.0
+        fin = np.isfinite(G)
+        li, j, q = np.nonzero((pos[:, :-1] != pos[:, 1:]) & fin[:, :-1] & fin[:, 1:])
+        a, b, fa, fb = xs[li, j], xs[li, j + 1], G[li, j, q], G[li, j + 1, q]
+
+        def g(x, idx, seg, lev):
+            _, Kx, Hx, rx = self.f(*point(x, seg[idx]))
+            return np.where(rx, self._thresholds(Kx, Hx)[np.arange(idx.size), lev[idx]], np.nan)
+
+        # pairs of crossings between samples: a dip of one sign towards zero
+        g0, g1, g2 = G[:, :-2], G[:, 1:-1], G[:, 2:]
+        with np.errstate(invalid="ignore"):
+            same = (np.sign(g0) == np.sign(g1)) & (np.sign(g1) == np.sign(g2)) \
+                & (np.abs(g1) < np.abs(g0)) & (np.abs(g1) < np.abs(g2))
+        pi, pj, pq = np.nonzero(same)
+        if pi.size:
+            x_0, x_1, x_2 = xs[pi, pj], xs[pi, pj + 1], xs[pi, pj + 2]
+            y0, y1, y2 = g0[pi, pj, pq], g1[pi, pj, pq], g2[pi, pj, pq]
+            # vertex value of the parabola through the three samples
+            d01, d12 = (y1 - y0) / (x_1 - x_0), (y2 - y1) / (x_2 - x_1)
+            c2 = (d12 - d01) / (x_2 - x_0)
+            c1 = d01 - c2 * (x_0 + x_1)
+            vert = (y1 - c2 * x_1 ** 2 - c1 * x_1) - c1 * c1 / (4.0 * c2)
+            sg = np.sign(y1)
+            cand = np.nonzero(sg * vert < 0.5 * np.abs(y1))[0]
+            if cand.size:
+                pi, pq, sg = pi[cand], pq[cand], sg[cand]
+                lo_, hi_ = x_0[cand], x_2[cand]
+                xe, fe = _golden_min(lambda x, idx: sg[idx] * g(x, idx, pi, pq), lo_, hi_)
+                hit = np.nonzero(fe < 0.0)[0]
+                fe = sg[hit] * fe[hit]
+                li = np.concatenate((li, pi[hit], pi[hit]))
+                q = np.concatenate((q, pq[hit], pq[hit]))
+                a = np.concatenate((a, lo_[hit], xe[hit]))
+                b = np.concatenate((b, xe[hit], hi_[hit]))
+                fa = np.concatenate((fa, y0[cand][hit], fe))
+                fb = np.concatenate((fb, fe, y2[cand][hit]))
+        if li.size == 0:
+            return li, q, np.empty(0), Js, KJs
+        roots = solve_bracketed(lambda x, idx: g(x, idx, li, q), a, b, fa, fb,
+                                1e-14 * (x1 - x0)[li])
+        return li, q, roots, Js, KJs
+
+    def _line_values(self, pid, sig, t0, t1):
+        """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)).
+
+        Returns dict F (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt, E (L, 7)
+        their error estimates, count (L, 5) crossings of each level, pair (L, 5, 2) the
+        closest two crossings of each level (NaN when fewer than two). The pieces of a line
+        between crossings have the class and the sign of K of their midpoint; J and K J are
+        integrated by Gauss-Kronrod 3/7 on pieces longer than SHORT_PIECE of the line, and
+        exactly over their interpolants at the samples ZS on shorter ones."""
+        L = pid.size
+        u, _ = self.patches.u_of_sigma(pid, sig)
+        lo, hi = self.patches.bounds(pid, u)
+        width = hi - lo
+        li, lq, roots, Js, KJs = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1)
+        ar = np.arange(L)
+        lid, a, b = _segments(np.concatenate((t0, roots, t1)), np.concatenate((ar, li, ar)))
+        span = (t1 - t0)[lid]
+        long_ = (b - a) > SHORT_PIECE * span
+        nl = int(long_.sum())
+        # one field call: the Kronrod nodes of long pieces, the midpoints of short ones
+        tl = a[long_, None] + (b - a)[long_, None] * XK[None, :]
+        tq = np.concatenate((tl.ravel(), 0.5 * (a + b)[~long_]))
+        lq_ = np.concatenate((np.repeat(lid[long_], XK.size), lid[~long_]))
+        J, K, H, reg = self.f(u[lq_], lo[lq_] + tq * width[lq_])
+        J, KJ = np.where(reg, J, 0.0), np.where(reg, K * J, 0.0)
+        mid = np.empty(lid.size, int)  # index of each piece's midpoint sample
+        mid[long_] = np.arange(nl) * XK.size + XK.size // 2
+        mid[~long_] = nl * XK.size + np.arange(lid.size - nl)
+        cls = classify(K[mid], H[mid], self.tau_H, self.tau_K, reg[mid])
+        sk = np.sign(np.where(cls >= 0, K[mid], 0.0))
+        scale = (b - a) * width[lid]
+        vals = np.zeros((2, lid.size))
+        errs = np.zeros((2, lid.size))
+        for row, f in enumerate((J, KJ)):
+            Fl = f[:nl * XK.size].reshape(nl, XK.size, 1) * scale[long_, None, None]
+            vk = np.einsum("nkq,k->nq", Fl, WK)
+            vals[row, long_] = vk[:, 0]
+            errs[row, long_] = _kronrod_error(Fl, vk)[:, 0]
+        if nl < lid.size:
+            sh = ~long_
+            LV = np.polynomial.legendre.legvander
+            dz = 0.5 * (LV(2.0 * (b[sh] - t0[lid[sh]]) / span[sh] - 1.0, ZS.size)
+                        - LV(2.0 * (a[sh] - t0[lid[sh]]) / span[sh] - 1.0, ZS.size))
+            w_hi = (dz @ M_HI) * (span * width[lid])[sh, None]
+            w_lo = (dz[:, :ZS.size - 1] @ M_LO) * (span * width[lid])[sh, None]
+            for row, fz in enumerate((Js[lid[sh]], KJs[lid[sh]])):
+                vals[row, sh] = np.einsum("sm,sm->s", w_hi, fz)
+                errs[row, sh] = np.abs(vals[row, sh] - np.einsum("sm,sm->s", w_lo, fz[:, 1:-1]))
+        # per piece: |K| J, max(K,0) J, max(-K,0) J, then J into its class column
+        P = np.zeros((lid.size, N_LINE_Q))
+        Pe = np.zeros((lid.size, N_LINE_Q))
+        for col, fac in ((0, sk), (1, np.maximum(sk, 0.0)), (2, np.minimum(sk, 0.0))):
+            P[:, col] = fac * vals[1]
+            Pe[:, col] = np.abs(fac) * errs[1]
+        ok = cls >= 0
+        rows = np.nonzero(ok)[0]
+        P[rows, 3 + cls[ok]] = vals[0][ok]
+        Pe[rows, 3 + cls[ok]] = errs[0][ok]
+        F, E = np.zeros((L, N_LINE_Q)), np.zeros((L, N_LINE_Q))
+        np.add.at(F, lid, P)
+        np.add.at(E, lid, Pe)
+        out = dict(F=F, E=E, count=np.bincount(li * N_LEVELS + lq, minlength=N_LEVELS * L)
+                   .reshape(L, N_LEVELS), pair=np.full((L, N_LEVELS, 2), np.nan))
+        key = li * N_LEVELS + lq
+        o = np.lexsort((roots, key))
+        key, r = key[o], roots[o]
+        k = np.nonzero(key[1:] == key[:-1])[0]
+        if k.size:
+            o = np.lexsort((r[k + 1] - r[k], key[k]))
+            k = k[o]
+            first = np.r_[True, key[k][1:] != key[k][:-1]]
+            k = k[first]
+            out["pair"].reshape(-1, 2)[key[k]] = np.stack((r[k], r[k + 1]), 1)
+        return out
+
+    def _piece_values(self, pc):
+        """Gauss-Kronrod 3/7 in sigma over pieces pc (dict of (n,) cell, sa, sb, kind) of the
+        mixed cells _pc_cells; nodes cluster_map(kind) of XI9 (the Kronrod nodes, and lines
+        next to both ends that only serve to detect tangencies there).
+
+        Returns values (n, 7), sigma error |G3 - K7| (n, 7), t error (n, 7), and of the 9
+        lines: sigma (n, 9), count (n, 9, 5), pair (n, 9, 5, 2) (9 = XI9.size)."""
+        cells = self._pc_cells
+        n, m = pc["sa"].size, XI9.size
+        c, dc = cluster_map(np.repeat(pc["kind"][:, None], m, 1), np.broadcast_to(XI9, (n, m)))
+        w = (pc["sb"] - pc["sa"])[:, None]
+        sig = pc["sa"][:, None] + w * c
+        P = np.repeat(cells["pid"][pc["cell"]][:, None], m, 1)
+        _, du = self.patches.u_of_sigma(P, sig)
+        d = self._line_values(P.ravel(), sig.ravel(), np.repeat(cells["t0"][pc["cell"]], m),
+                              np.repeat(cells["t1"][pc["cell"]], m))
+        wt = (w * dc * du)[:, 1:-1, None]
+        F = d["F"].reshape(n, m, N_LINE_Q)[:, 1:-1] * wt
+        Fk = np.einsum("nkq,k->nq", F, WK)
+        es = _kronrod_error(F, Fk)
+        et = np.einsum("nkq,k->nq", d["E"].reshape(n, m, N_LINE_Q)[:, 1:-1] * wt, WK)
+        return (Fk, es, et, sig, d["count"].reshape(n, m, N_LEVELS),
+                d["pair"].reshape(n, m, N_LEVELS, 2))
+
+    def _edge_cuts(self, cells):
+        """sigma (k,) where level curves cross the cells' edges t = t0 and t = t1, and the
+        cell (k,) of each: the line values have a kink there."""
+        pid = cells["pid"]
+        n = pid.size
+        E = np.concatenate((np.arange(n), np.arange(n)))
+        tE = np.concatenate((cells["t0"], cells["t1"]))
+
+        def point(x, i):
+            u, _ = self.patches.u_of_sigma(pid[E[i]], x)
+            lo, hi = self.patches.bounds(pid[E[i]], u)
+            return u, lo + tE[i] * (hi - lo)
+
+        li, _, roots, _, _ = self._crossings(point, cells["s0"][E], cells["s1"][E])
+        return E[li], roots
+
+    def _tangent_cuts(self, pc, sig, count, pair):
+        """sigma (k,) and piece (k,) where a level curve is tangent to the lines sigma =
+        const, between neighbouring lines of a piece whose crossing counts differ.
+
+        With h = s g_q (s the sign making h < 0 between the closest crossing pair on the
+        line with more crossings), phi(sigma) = min of h along the line over a window about
+        that pair (golden section) has a simple root at the tangency, found by
+        solve_bracketed. Brackets where phi does not change sign, and roots at a piece's
+        end (within EDGE_XI of its width), give no cut."""
+        p, j, q = np.nonzero(count[:, :-1, :] != count[:, 1:, :])
+        if p.size == 0:
+            return p, np.empty(0)
+        more = np.where(count[p, j, q] > count[p, j + 1, q], j, j + 1)
+        ta, tb = pair[p, more, q, 0], pair[p, more, q, 1]
+        keep = np.isfinite(ta)
+        p, j, q, more, ta, tb = p[keep], j[keep], q[keep], more[keep], ta[keep], tb[keep]
+        if p.size == 0:
+            return p, np.empty(0)
+        cells = self._pc_cells
+        cell = pc["cell"][p]
+        pid, t0, t1 = cells["pid"][cell], cells["t0"][cell], cells["t1"][cell]
+        gap = tb - ta
+        w0 = np.maximum(ta - gap, t0)
+        w1 = np.minimum(tb + gap, t1)
+
+        def level(sg, t, i):
+            u, _ = self.patches.u_of_sigma(pid[i], sg)
+            lo, hi = self.patches.bounds(pid[i], u)
+            _, K, H, reg = self.f(u, lo + t * (hi - lo))
+            return np.where(reg, self._thresholds(K, H)[np.arange(i.size), q[i]], np.nan)
+
+        sm = sig[p, more]
+        sign = -np.sign(level(sm, 0.5 * (ta + tb), np.arange(p.size)))
+
+        def phi(sg, i):
+            """min over the window of sign * g_q on the lines sg."""
+            return _golden_min(lambda t, k: sign[i[k]] * level(sg[k], t, i[k]), w0[i], w1[i])[1]
+
+        so = sig[p, np.where(more == j, j + 1, j)]
+        ar = np.arange(p.size)
+        fm, fo = phi(sm, ar), phi(so, ar)
+        ok = (fm < 0.0) & (fo > 0.0)
+        if not ok.any():
+            return p[:0], np.empty(0)
+        i = np.nonzero(ok)[0]
+        w = (pc["sb"] - pc["sa"])[p[i]]
+        root = solve_bracketed(lambda x, k: phi(x, i[k]), sm[i], so[i], fm[i], fo[i],
+                               TANGENT_RTOL * w)
+        inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
+        return p[i][inside], root[inside]
+
+    def _lines(self, cells, budget):
+        """LINE_Q integrals (n, 7), error estimates (n, 7) and fit flags (n,) of mixed cells
+        with error budgets (n, 7).
+
+        Each cell is cut in sigma at its edge crossings and, as they are found, at
+        tangencies of level curves (with a clustered map at those ends, as the square-root
+        behaviour there requires); the pieces are integrated by Gauss-Kronrod and those
+        whose error has a dominant sigma part and does not fit the cell's budget are halved
+        (greedy per cell, as in the quadtree), at most class_max_depth times. A cell stops
+        early once its accepted and current errors fit its budget, or once its accepted
+        errors exceed it, two halves keep more than STALL_RATIO of their parent's error, or
+        it holds MAX_PIECES pieces (a singular or rough integrand). A cell fits when its
+        total error estimate is within its budget; the quadtree refines the others."""
+        self._pc_cells = cells
+        nc = cells["pid"].size
+        out, errs = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q))
+        ec, es = self._edge_cuts(cells)
+        ar = np.arange(nc)
+        cell, sa, sb = _segments(np.concatenate((cells["s0"], es, cells["s1"])),
+                                 np.concatenate((ar, ec, ar)))
+        n = cell.size
+        pc = dict(cell=cell, sa=sa, sb=sb, kind=np.zeros(n, int), perr=np.full(n, np.inf),
+                  sib=np.full(n, -1))
+        left = budget.copy()
+        for level in range(self.class_max_depth + 1):
+            F, e_s, e_t, sig, count, pair = self._piece_values(pc)
+            last = level == self.class_max_depth
+            tp, ts = (np.empty(0, int), None) if last else self._tangent_cuts(pc, sig, count, pair)
+            cut = np.zeros(pc["sa"].size, bool)
+            cut[tp] = True
+            c = pc["cell"]
+            err = e_s + e_t
+            with np.errstate(divide="ignore", invalid="ignore"):
+                enorm = np.nan_to_num(err / budget[c], nan=0.0).max(1)
+            # halves whose errors together did not fall below STALL_RATIO of their parent's
+            sib = pc["sib"]
+            halves = sib >= 0
+            pair_sum = np.bincount(sib[halves], weights=enorm[halves], minlength=cut.size)
+            stalled = np.zeros(nc, bool)
+            stalled[c[halves & (pair_sum[np.maximum(sib, 0)] > STALL_RATIO * pc["perr"])]] = True
+            total = budget - left
+            np.add.at(total, c, err)
+            fits = np.all(total <= budget, 1) & (np.bincount(c[cut], minlength=nc) == 0)
+            give_up = stalled | np.any(left < 0.0, 1) | (np.bincount(c, minlength=nc) >= MAX_PIECES)
+            done = np.ones(cut.size, bool) if last else ~cut & (
+                fits[c] | give_up[c] | _greedy_accept(err, left, c) | np.all(e_s <= e_t, 1))
+            np.add.at(out, c[done], F[done])
+            np.add.at(errs, c[done], err[done])
+            np.add.at(left, c[done], -err[done])
+            halve = ~done & ~cut
+            pc = _concat_pieces(_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm))
+            if pc["sa"].size == 0:
+                break
+        return out, errs, np.all(errs <= budget, 1)
+
+    # -- result -------------------------------------------------------------------------------
+
+    def snapshot(self, max_depth, seconds_start):
+        """Result of the current state: accepted units plus those left pending."""
+        parts = list(self.accepted)
+        if self.pending is not None and self.pending["pid"].size:
+            parts.append(self.pending)
+        units = _cat(parts)
+        Q = units["Q"].sum(0)
+        err = units["err"].sum(0)
+        tol = self._tolerance(Q)
+        pend = self.pending if self.pending is not None else {k: v[:0] for k, v in units.items()}
+        unconv = self.patches.boxes(pend["pid"], pend["s0"], pend["s1"], pend["t0"], pend["t1"])
+        top = np.argsort(-units["peak"][:, 2])[:N_PEAKS]
+        nonreg = np.concatenate(self.nonregular) if self.nonregular else np.empty((0, 2))
+        return QuadratureResult(
+            values={q: float(x) for q, x in zip(QUANTITIES, Q)},
+            errors={q: float(x) for q, x in zip(QUANTITIES, err)},
+            tolerances={q: float(x) for q, x in zip(QUANTITIES, tol)},
+            converged={q: bool(c) for q, c in zip(QUANTITIES, err <= tol)},
+            order=self.order, rtol=self.rtol, max_depth=max_depth,
+            depth_reached=int(units["depth"].max()), n_points=self.f.n_points,
+            n_field_calls=self.f.n_calls, n_cells=4 * int(units["pid"].size),
+            n_initial_cells=self.patches.size, n_mixed_cells=int(units["mixed"].sum()),
+            nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
+            peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start)
+
+
+def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
+              v_breaks=(), progress=None, recheck=True, class_max_depth=8):
+    """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
+
+    domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
+    with attributes) of (n,) arrays J = |S_u x S_v| (eq:brep_jacobian), K, H (eq:brephk)
+    and bool regular. tau_H, tau_K > 0: class thresholds (eq:class_thresholds). order:
+    Gauss-Legendre points per direction; rtol: relative tolerance per quantity; max_depth:
+    quadtree levels below the initial patches; u_breaks, v_breaks: knot lines where the
+    integrand is less smooth (cells are cut there); progress(fraction, message) or None;
+    recheck: when something did not converge, continue one level deeper and attach that
+    result as ``recheck`` (paper section 5.2); class_max_depth: halvings in sigma of a
+    mixed cell's line integrals. Returns a QuadratureResult.
+    """
+    if not isinstance(domain, TrimmedDomain):
+        raise InputError("integrate() needs a TrimmedDomain, got %s" % type(domain).__name__)
+    tau_H = check_positive("tau_H", tau_H)
+    tau_K = check_positive("tau_K", tau_K)
+    check_positive("rtol", rtol)
+    if int(order) < 1 or int(max_depth) < 1 or int(class_max_depth) < 0:
+        raise InputError("quadrature order and max_depth must be >= 1 and class_max_depth "
+                         ">= 0, got %r, %r, %r" % (order, max_depth, class_max_depth))
+    start = time.perf_counter()
+    it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
+                     u_breaks, v_breaks, progress)
+    it.refine_to(int(max_depth))
+    result = it.snapshot(int(max_depth), start)
+    if recheck and not result.all_converged:
+        it.refine_to(int(max_depth) + 1)
+        result.recheck = it.snapshot(int(max_depth) + 1, start)
+    if progress is not None:
+        progress(1.0, "quadrature done: %d points" % it.f.n_points)
+    return result
