@@ -120,8 +120,9 @@ def test_trimmed_circular_caps():
     r = assess(caps, lref=2.0)
     # Two caps of the unit sphere within 0.5 of the axis: area 2 * 2 pi (1 - cos(asin 0.5)).
     area = 2 * 2 * math.pi * (1 - math.cos(math.asin(0.5)))
-    sphere_faces = [f for f in caps.Faces if type(f.Surface).__name__ == "Sphere"]
-    a2 = assess(caps, lref=2.0, faces=[caps.Faces.index(f) + 1 for f in sphere_faces])
+    numbers = [i + 1 for i, f in enumerate(caps.Faces) if type(f.Surface).__name__ == "Sphere"]
+    assert len(numbers) == 2
+    a2 = assess(caps, lref=2.0, faces=numbers)
     assert a2.integrals.represented_area == pytest.approx(area, rel=1e-9)
     assert a2.signature["I_D"] == pytest.approx(4.0, rel=RTOL_ID)
     assert r.integrals.represented_area > area

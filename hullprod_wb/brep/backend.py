@@ -37,6 +37,9 @@ METRIC_QUANTITIES = {"I_D": ("int_abs_K", "A_valid"), "I_D_plus": ("int_K_plus",
                      "I_D_minus": ("int_K_minus", "A_valid"),
                      "a_flat": ("A_flat", "A_classified"), "a_single": ("A_single", "A_classified"),
                      "a_elliptic": ("A_elliptic", "A_classified"), "a_saddle": ("A_saddle", "A_classified")}
+#: Tree depth and class-line halvings of a graded neighbourhood quadrant.
+QUADRANT_MAX_DEPTH = 5
+QUADRANT_CLASS_DEPTH = 1
 #: Points per face for the pointwise cross-check against OpenCascade.
 CROSS_CHECK_POINTS = 7
 
@@ -94,14 +97,18 @@ def area_cross_check(ff, domain, u_breaks, v_breaks, tau_H, tau_K, area):
 class CombinedQuadrature:
     """Quadrature of a face made of parts: the face with its singular neighbourhoods
     excluded, and each neighbourhood quadrant through its graded map. Sums values, errors
-    and counts; converged where every part converged (at its deepest check)."""
+    and counts. A quantity is converged when the main part converged (at its deepest check)
+    and the summed error estimates of all parts are within the main part's tolerance."""
 
     def __init__(self, parts):
         self.parts = parts
         finals = [_final(p) for p in parts]
         self.values = {k: float(sum(f.values[k] for f in finals)) for k in QUANTITIES}
         self.errors = {k: float(sum(f.errors[k] for f in finals)) for k in QUANTITIES}
-        self.converged = {k: all(f.converged[k] for f in finals) for k in QUANTITIES}
+        main = finals[0]
+        self.converged = {k: bool(main.converged[k] and self.errors[k] <= main.tolerances[k] +
+                                  sum(f.tolerances[k] for f in finals[1:]))
+                          for k in QUANTITIES}
         self.depth_reached = max(f.depth_reached for f in finals)
         self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
                                 for p in parts))
@@ -155,9 +162,13 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
     parts = [integrate(domain, main_field, thresholds.tau_H, thresholds.tau_K, u_breaks=gu, v_breaks=gv,
                        progress=progress, **kw)]
     unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0) if quads else None
+    # Each neighbourhood quadrant may use up to a 1/(2 n) share of the face's tolerance; the
+    # graded map makes its integrand smooth, so a shallow tree resolves it.
+    share = {k: abs(v) / (2.0 * max(len(quads), 1)) for k, v in _final(parts[0]).values.items()}
+    qkw = dict(kw, max_depth=min(opts["max_depth"], QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
     for q in quads:
         parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,
-                               **kw))
+                               reference=share, **qkw))
     quad = CombinedQuadrature(parts)
     audits = []
     if deg and opts.get("audit", True):

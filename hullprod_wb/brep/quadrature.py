@@ -73,9 +73,12 @@ ACCEPT_FRACTION = 0.5
 #: Widening of a cell's sampled K (H) range when testing whether it meets a level.
 STRADDLE_MARGIN = 0.5
 #: Golden-section steps locating the extremum of a level function along a line.
-GOLDEN_STEPS = 30
+GOLDEN_STEPS = 16
+#: A dip of three samples is searched for crossings when the vertex of their parabola gets
+#: within this fraction of the middle sample's value from zero.
+DIP_FRACTION = 0.2
 #: Relative precision of a tangency cut in sigma (a cut off by d leaves an error ~ d^1.5).
-TANGENT_RTOL = 1e-9
+TANGENT_RTOL = 1e-8
 #: Line pieces are not halved further once halving keeps this much of their error, nor in a
 #: cell that holds this many pieces (the quadtree refines such cells instead).
 STALL_RATIO = 0.45
@@ -400,6 +403,22 @@ def _segments(cuts, owner):
     return w[k], c[k], c[k + 1]
 
 
+def _count_and_pairs(line, level, roots, L):
+    """Crossings per line and level, count (L, 5), and the closest two of each, pair
+    (L, 5, 2) (NaN when fewer than two), from roots (k,) of lines line (k,), levels (k,)."""
+    key = line * N_LEVELS + level
+    count = np.bincount(key, minlength=N_LEVELS * L).reshape(L, N_LEVELS)
+    pair = np.full((L, N_LEVELS, 2), np.nan)
+    o = np.lexsort((roots, key))
+    key, r = key[o], roots[o]
+    k = np.nonzero(key[1:] == key[:-1])[0]
+    if k.size:
+        k = k[np.lexsort((r[k + 1] - r[k], key[k]))]
+        k = k[np.r_[True, key[k][1:] != key[k][:-1]]]
+        pair.reshape(-1, 2)[key[k]] = np.stack((r[k], r[k + 1]), 1)
+    return dict(count=count, pair=pair)
+
+
 def _golden_min(fun, a, b, steps=None):
     """Minimum of fun on [a, b] (n,) by golden section, all at once: (x (n,), f (n,)).
 
@@ -471,6 +490,7 @@ class _Integrator:
         self.order, self.rtol = order, rtol
         self.class_max_depth = class_max_depth
         self.progress = progress
+        self.reference = np.zeros(NQ)  # see integrate(reference=...)
         self.x, self.w = _gauss(order)
         self.patches = _Patches(domain, u_breaks, v_breaks)
         P = self.patches.size
@@ -559,11 +579,11 @@ class _Integrator:
     # -- quadtree -----------------------------------------------------------------------------
 
     def _tolerance(self, Q):
-        """tol_q = rtol max(|Q_q|, ZERO_SCALE scale_q) for all quantities, (9,)."""
+        """tol_q = rtol max(|Q_q|, ZERO_SCALE scale_q, reference_q) for all quantities, (9,)."""
         A = abs(Q[0])
         scale = np.full(NQ, A)
         scale[2:5] *= self.tau_K
-        return self.rtol * np.maximum(np.abs(Q), ZERO_SCALE * scale)
+        return self.rtol * np.maximum(np.maximum(np.abs(Q), ZERO_SCALE * scale), self.reference)
 
     def refine_to(self, depth_limit):
         """Refine level by level until converged or depth_limit is reached."""
@@ -634,63 +654,101 @@ class _Integrator:
 
     # -- lines in mixed cells -----------------------------------------------------------------
 
-    def _crossings(self, point, x0, x1):
-        """Zeros of the four level functions along segments x in [x0, x1] (n,).
+    def _crossings(self, point, x0, x1, refine=True):
+        """Zeros of the five level functions along segments x in [x0, x1] (n,).
 
         point(x, i) -> (u, v) maps parameters x (m,) of segments i (m,) to the plane.
-        Brackets are the sign changes between the samples at ZS, plus, where three
-        samples of one sign approach zero in the middle and their parabola gets within
-        half-way of zero, the two sides of the extremum found by golden section when it has
-        the other sign (two crossings between neighbouring samples). All are refined at once
-        (one field call per step of solve_bracketed). Returns segment index (k,), level
-        index (k,), x (k,) and J, K J at the samples ((n, 9) each, 0 where not regular)."""
+        Brackets: sign changes between the samples at ZS, and, where three samples of one
+        sign dip towards zero and their parabola's vertex gets within DIP_FRACTION of zero,
+        the two sides of the extremum (golden section) when it has the other sign. Levels of
+        H only matter where |K| <= tau_K and are skipped elsewhere. The roots of K are found
+        first; a root of K -+ tau_K in the same sample interval is then bracketed from that
+        root, which is next to it for small tau_K. refine=False only counts crossings
+        (approximate positions from the samples, no further field calls). Returns segment
+        index (k,), level index (k,), x (k,), and J, K J at the samples ((n, 9) each, 0
+        where not regular)."""
         n = x0.size
+        m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
-        J, K, H, reg = self.f(*point(xs.ravel(), np.repeat(np.arange(n), ZS.size)))
-        G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, ZS.size, N_LEVELS)
-        Js = np.where(reg, J, 0.0).reshape(n, -1)
-        KJs = np.where(reg, K * J, 0.0).reshape(n, -1)
+        J, K, H, reg = self.f(*point(xs.ravel(), np.repeat(np.arange(n), m)))
+        G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, m, N_LEVELS)
+        Js = np.where(reg, J, 0.0).reshape(n, m)
+        KJs = np.where(reg, K * J, 0.0).reshape(n, m)
+        near = (np.abs(np.where(reg, K, np.inf)) <= self.tau_K).reshape(n, m)  # H matters
         pos = G > 0.0
         fin = np.isfinite(G)
-        li, j, q = np.nonzero((pos[:, :-1] != pos[:, 1:]) & fin[:, :-1] & fin[:, 1:])
+        change = (pos[:, :-1] != pos[:, 1:]) & fin[:, :-1] & fin[:, 1:]
+        k_change = change[:, :, :2].any(2) | change[:, :, 4]
+        h_ok = near[:, :-1] | near[:, 1:] | k_change
+        change[:, :, 2:4] &= h_ok[:, :, None]
+        li, j, q = np.nonzero(change)
         a, b, fa, fb = xs[li, j], xs[li, j + 1], G[li, j, q], G[li, j + 1, q]
 
         def g(x, idx, seg, lev):
             _, Kx, Hx, rx = self.f(*point(x, seg[idx]))
             return np.where(rx, self._thresholds(Kx, Hx)[np.arange(idx.size), lev[idx]], np.nan)
 
-        # pairs of crossings between samples: a dip of one sign towards zero
+        # two crossings between neighbouring samples: a dip of one sign towards zero
         g0, g1, g2 = G[:, :-2], G[:, 1:-1], G[:, 2:]
-        with np.errstate(invalid="ignore"):
-            same = (np.sign(g0) == np.sign(g1)) & (np.sign(g1) == np.sign(g2)) \
+        with np.errstate(invalid="ignore", divide="ignore"):
+            dip = (np.sign(g0) == np.sign(g1)) & (np.sign(g1) == np.sign(g2)) \
                 & (np.abs(g1) < np.abs(g0)) & (np.abs(g1) < np.abs(g2))
-        pi, pj, pq = np.nonzero(same)
-        if pi.size:
+            dip[:, :, 2:4] &= (near[:, :-2] | near[:, 1:-1] | near[:, 2:])[:, :, None]
+            pi, pj, pq = np.nonzero(dip)
             x_0, x_1, x_2 = xs[pi, pj], xs[pi, pj + 1], xs[pi, pj + 2]
             y0, y1, y2 = g0[pi, pj, pq], g1[pi, pj, pq], g2[pi, pj, pq]
-            # vertex value of the parabola through the three samples
             d01, d12 = (y1 - y0) / (x_1 - x_0), (y2 - y1) / (x_2 - x_1)
             c2 = (d12 - d01) / (x_2 - x_0)
             c1 = d01 - c2 * (x_0 + x_1)
+            xv = -c1 / (2.0 * c2)
             vert = (y1 - c2 * x_1 ** 2 - c1 * x_1) - c1 * c1 / (4.0 * c2)
-            sg = np.sign(y1)
-            cand = np.nonzero(sg * vert < 0.5 * np.abs(y1))[0]
-            if cand.size:
-                pi, pq, sg = pi[cand], pq[cand], sg[cand]
-                lo_, hi_ = x_0[cand], x_2[cand]
-                xe, fe = _golden_min(lambda x, idx: sg[idx] * g(x, idx, pi, pq), lo_, hi_)
-                hit = np.nonzero(fe < 0.0)[0]
-                fe = sg[hit] * fe[hit]
-                li = np.concatenate((li, pi[hit], pi[hit]))
-                q = np.concatenate((q, pq[hit], pq[hit]))
-                a = np.concatenate((a, lo_[hit], xe[hit]))
-                b = np.concatenate((b, xe[hit], hi_[hit]))
-                fa = np.concatenate((fa, y0[cand][hit], fe))
-                fb = np.concatenate((fb, fe, y2[cand][hit]))
+        sg = np.sign(y1)
+        cand = np.nonzero(sg * vert < DIP_FRACTION * np.abs(y1))[0]
+        if cand.size and refine:
+            pi, pq, sg = pi[cand], pq[cand], sg[cand]
+            lo_, hi_ = x_0[cand], x_2[cand]
+            xe, fe = _golden_min(lambda x, idx: sg[idx] * g(x, idx, pi, pq), lo_, hi_)
+            hit = np.nonzero(fe < 0.0)[0]
+            fe = sg[hit] * fe[hit]
+            li = np.concatenate((li, pi[hit], pi[hit]))
+            q = np.concatenate((q, pq[hit], pq[hit]))
+            a = np.concatenate((a, lo_[hit], xe[hit]))
+            b = np.concatenate((b, xe[hit], hi_[hit]))
+            fa = np.concatenate((fa, y0[cand][hit], fe))
+            fb = np.concatenate((fb, fe, y2[cand][hit]))
+        if not refine:
+            # counts only: regula falsi positions, and the parabola's roots for dips
+            with np.errstate(invalid="ignore", divide="ignore"):
+                roots = a + fa / (fa - fb) * (b - a)
+                cross = np.nonzero(sg * vert < 0.0)[0]
+                half = np.sqrt(np.maximum(-vert[cross] / c2[cross], 0.0))
+            li = np.concatenate((li, pi[cross], pi[cross]))
+            q = np.concatenate((q, pq[cross], pq[cross]))
+            roots = np.concatenate((roots, xv[cross] - half, xv[cross] + half))
+            return li, q, roots, Js, KJs
         if li.size == 0:
             return li, q, np.empty(0), Js, KJs
-        roots = solve_bracketed(lambda x, idx: g(x, idx, li, q), a, b, fa, fb,
-                                1e-14 * (x1 - x0)[li])
+        xtol = 1e-14 * (x1 - x0)[li]
+        # K -+ tau_K next to a root of K in the same interval: solved after it
+        key = li * (m - 1) + np.searchsorted(ZS, (a - x0[li]) / (x1 - x0)[li], side="right") - 1
+        k_keys = key[q == 4]
+        late = (q < 2) & np.isin(key, k_keys)
+        early = ~late
+        roots = np.empty(li.size)
+        e = np.nonzero(early)[0]
+        roots[e] = solve_bracketed(lambda x, i: g(x, i, li[e], q[e]), a[e], b[e], fa[e], fb[e],
+                                   xtol[e])
+        lt = np.nonzero(late)[0]
+        if lt.size:
+            kk = np.nonzero(q == 4)[0]
+            order = np.argsort(k_keys)
+            r0 = roots[kk[order]][np.searchsorted(k_keys[order], key[lt])]
+            f0 = np.where(q[lt] == 0, -self.tau_K, self.tau_K)  # K(r0) = 0 to rounding
+            left = np.sign(f0) != np.sign(fa[lt])  # the root lies between a and r0
+            na, nb = np.where(left, a[lt], r0), np.where(left, r0, b[lt])
+            nfa, nfb = np.where(left, fa[lt], f0), np.where(left, f0, fb[lt])
+            roots[lt] = solve_bracketed(lambda x, i: g(x, i, li[lt], q[lt]), na, nb, nfa, nfb,
+                                        xtol[lt])
         return li, q, roots, Js, KJs
 
     def _line_values(self, pid, sig, t0, t1):
@@ -754,43 +812,52 @@ class _Integrator:
         F, E = np.zeros((L, N_LINE_Q)), np.zeros((L, N_LINE_Q))
         np.add.at(F, lid, P)
         np.add.at(E, lid, Pe)
-        out = dict(F=F, E=E, count=np.bincount(li * N_LEVELS + lq, minlength=N_LEVELS * L)
-                   .reshape(L, N_LEVELS), pair=np.full((L, N_LEVELS, 2), np.nan))
-        key = li * N_LEVELS + lq
-        o = np.lexsort((roots, key))
-        key, r = key[o], roots[o]
-        k = np.nonzero(key[1:] == key[:-1])[0]
-        if k.size:
-            o = np.lexsort((r[k + 1] - r[k], key[k]))
-            k = k[o]
-            first = np.r_[True, key[k][1:] != key[k][:-1]]
-            k = k[first]
-            out["pair"].reshape(-1, 2)[key[k]] = np.stack((r[k], r[k + 1]), 1)
+        out = dict(F=F, E=E)
+        out.update(_count_and_pairs(li, lq, roots, L))
         return out
+
+    def _line_counts(self, pid, sig, t0, t1):
+        """Crossing counts (L, 5) and closest pairs (L, 5, 2) of lines, from their samples
+        only (see _crossings with refine=False)."""
+        u, _ = self.patches.u_of_sigma(pid, sig)
+        lo, hi = self.patches.bounds(pid, u)
+        width = hi - lo
+        li, lq, roots, _, _ = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1,
+                                              refine=False)
+        return _count_and_pairs(li, lq, roots, pid.size)
 
     def _piece_values(self, pc):
         """Gauss-Kronrod 3/7 in sigma over pieces pc (dict of (n,) cell, sa, sb, kind) of the
-        mixed cells _pc_cells; nodes cluster_map(kind) of XI9 (the Kronrod nodes, and lines
-        next to both ends that only serve to detect tangencies there).
+        mixed cells _pc_cells; nodes cluster_map(kind) of XI9: the Kronrod nodes, and lines
+        next to both ends whose crossings are only counted, to detect tangencies there.
 
-        Returns values (n, 7), sigma error |G3 - K7| (n, 7), t error (n, 7), and of the 9
-        lines: sigma (n, 9), count (n, 9, 5), pair (n, 9, 5, 2) (9 = XI9.size)."""
+        Returns values (n, 7), sigma error (_kronrod_error) (n, 7), t error (n, 7), and of
+        the 9 lines: sigma (n, 9), count (n, 9, 5), pair (n, 9, 5, 2)."""
         cells = self._pc_cells
         n, m = pc["sa"].size, XI9.size
         c, dc = cluster_map(np.repeat(pc["kind"][:, None], m, 1), np.broadcast_to(XI9, (n, m)))
         w = (pc["sb"] - pc["sa"])[:, None]
         sig = pc["sa"][:, None] + w * c
         P = np.repeat(cells["pid"][pc["cell"]][:, None], m, 1)
+        T0 = np.repeat(cells["t0"][pc["cell"]][:, None], m, 1)
+        T1 = np.repeat(cells["t1"][pc["cell"]][:, None], m, 1)
         _, du = self.patches.u_of_sigma(P, sig)
-        d = self._line_values(P.ravel(), sig.ravel(), np.repeat(cells["t0"][pc["cell"]], m),
-                              np.repeat(cells["t1"][pc["cell"]], m))
+        inner = (slice(None), slice(1, -1))
+        d = self._line_values(P[inner].ravel(), sig[inner].ravel(), T0[inner].ravel(),
+                              T1[inner].ravel())
+        ends = (slice(None), [0, -1])
+        e = self._line_counts(P[ends].ravel(), sig[ends].ravel(), T0[ends].ravel(), T1[ends].ravel())
+        count = np.concatenate((e["count"].reshape(n, 2, -1)[:, :1], d["count"].reshape(n, m - 2, -1),
+                                e["count"].reshape(n, 2, -1)[:, 1:]), 1)
+        pair = np.concatenate((e["pair"].reshape(n, 2, N_LEVELS, 2)[:, :1],
+                               d["pair"].reshape(n, m - 2, N_LEVELS, 2),
+                               e["pair"].reshape(n, 2, N_LEVELS, 2)[:, 1:]), 1)
         wt = (w * dc * du)[:, 1:-1, None]
-        F = d["F"].reshape(n, m, N_LINE_Q)[:, 1:-1] * wt
+        F = d["F"].reshape(n, m - 2, N_LINE_Q) * wt
         Fk = np.einsum("nkq,k->nq", F, WK)
         es = _kronrod_error(F, Fk)
-        et = np.einsum("nkq,k->nq", d["E"].reshape(n, m, N_LINE_Q)[:, 1:-1] * wt, WK)
-        return (Fk, es, et, sig, d["count"].reshape(n, m, N_LEVELS),
-                d["pair"].reshape(n, m, N_LEVELS, 2))
+        et = np.einsum("nkq,k->nq", d["E"].reshape(n, m - 2, N_LINE_Q) * wt, WK)
+        return Fk, es, et, sig, count, pair
 
     def _edge_cuts(self, cells):
         """sigma (k,) where level curves cross the cells' edges t = t0 and t = t1, and the
@@ -943,7 +1010,7 @@ class _Integrator:
 
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
-              v_breaks=(), progress=None, recheck=True, class_max_depth=8):
+              v_breaks=(), progress=None, recheck=True, class_max_depth=8, reference=None):
     """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
 
     domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
@@ -954,7 +1021,10 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     integrand is less smooth (cells are cut there); progress(fraction, message) or None;
     recheck: when something did not converge, continue one level deeper and attach that
     result as ``recheck`` (paper section 5.2); class_max_depth: halvings in sigma of a
-    mixed cell's line integrals. Returns a QuadratureResult.
+    mixed cell's line integrals; reference: dict quantity -> magnitude that the tolerance
+    is relative to at least (for a piece of a larger integral, e.g. a singular neighbourhood
+    integrated apart from its face: its share of the face's tolerance). Returns a
+    QuadratureResult.
     """
     if not isinstance(domain, TrimmedDomain):
         raise InputError("integrate() needs a TrimmedDomain, got %s" % type(domain).__name__)
@@ -967,6 +1037,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     start = time.perf_counter()
     it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
                      u_breaks, v_breaks, progress)
+    it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
     it.refine_to(int(max_depth))
     result = it.snapshot(int(max_depth), start)
     if recheck and not result.all_converged:

@@ -229,7 +229,7 @@ def quadrant_breaks(quadrants):
 
 
 def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=5, rtol=1e-6,
-                max_depth=5, levels=AUDIT_LEVELS, m=GRADING_POWER):
+                max_depth=3, levels=AUDIT_LEVELS, m=GRADING_POWER):
     """Nested-neighbourhood audit around a degenerate point.
 
     For the boxes B_k (the point's quadrants shrunk by 2^-k, r_k = r0 2^-k) it integrates the
@@ -244,6 +244,9 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
     if not mine:
         return {"point": [pu, pv], "verdict": "not_audited",
                 "reason": "the neighbourhood of the point is crossed by trim curves"}
+    # Only the area and the K integrals matter here: the class areas get the face's area
+    # as their tolerance reference and no line refinement.
+    ref = {q: abs(totals.get("A", 0.0)) for q in ("A_flat", "A_single", "A_elliptic", "A_saddle")}
     rows = []
     for k in range(levels):
         sk = 2.0 ** (-k / m)  # s = (r / r0)^(1/m)
@@ -251,7 +254,8 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
         conv = True
         for q in mine:
             res = integrate(TrimmedDomain.rectangle(0.0, sk, 0.0, sk), GradedQuadrantField(face_field, q, m),
-                            tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth, recheck=False)
+                            tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth, recheck=False,
+                            class_max_depth=0, reference=ref)
             acc["area"] += res.values["A"]
             for key in ("int_abs_K", "int_K_plus", "int_K_minus"):
                 acc[key] += res.values[key]

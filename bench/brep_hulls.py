@@ -1,0 +1,116 @@
+"""Benchmark of the native-BRep backend on the shared public hulls.
+
+For each hull in ../shared/hulls/brep: wall time of the whole command
+(`./hullprod analyze FILE --json`), quadrature points evaluated and the seven statuses.
+With --reference, the same files go through the paper's reference package (hullprod 1.0.1
+from PyPI, installed into a throwaway virtual environment, never a project dependency) in
+the same run, and the time ratios are printed.
+
+    /usr/bin/python3 bench/brep_hulls.py [--reference] [--venv DIR] [--hulls DIR]
+"""
+import argparse
+import glob
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+HULLS = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep"))
+#: L_ref per file (L_pp where the source gives it; else None: automatic).
+LREF = {"dtmb5415_half_overture.igs": 5720.0}
+METRICS = ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single", "a_elliptic", "a_saddle")
+
+
+def run_ours(path, lref):
+    cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet", "--no-fields"]
+    if lref:
+        cmd += ["--lref", str(lref)]
+    t = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if p.returncode != 0:
+        return {"wall": wall, "error": p.stderr.strip()[-300:]}
+    doc = json.loads(p.stdout)
+    return {"wall": wall, "I_D": doc["signature"]["I_D"],
+            "statuses": [doc["validity"][m]["status"] for m in METRICS],
+            "points": doc["options"].get("points_evaluated")}
+
+
+def ensure_reference_venv(venv):
+    exe = os.path.join(venv, "bin", "hullprod")
+    if not os.path.exists(exe):
+        subprocess.run([sys.executable, "-m", "venv", venv], check=True)
+        subprocess.run([os.path.join(venv, "bin", "pip"), "install", "-q", "hullprod==1.0.1"], check=True)
+    return exe
+
+
+def _find(obj, key):
+    """First value of key anywhere in a nested JSON object."""
+    if isinstance(obj, dict):
+        if key in obj:
+            return obj[key]
+        for v in obj.values():
+            r = _find(v, key)
+            if r is not None:
+                return r
+    elif isinstance(obj, list):
+        for v in obj:
+            r = _find(v, key)
+            if r is not None:
+                return r
+    return None
+
+
+def run_reference(exe, path, lref):
+    out = tempfile.mkdtemp(prefix="hullprod-ref-")
+    cmd = [exe, path, "--out", out, "--overwrite", "--no-plots", "--quiet"]
+    if lref:
+        cmd += ["--lref", str(lref)]
+    t = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    res = {"wall": wall}
+    sig = os.path.join(out, "signature.json")
+    if p.returncode != 0 or not os.path.exists(sig):
+        res["error"] = (p.stderr or p.stdout).strip()[-300:]
+        return res
+    doc = json.load(open(sig))
+    res["I_D"] = _find(doc, "I_D")
+    val = os.path.join(out, "validity.json")
+    text = open(val).read() if os.path.exists(val) else json.dumps(doc)
+    res["unconverged"] = text.count("UNCONVERGED")
+    return res
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--reference", action="store_true", help="also run hullprod 1.0.1 and print ratios")
+    ap.add_argument("--venv", default=os.path.join(tempfile.gettempdir(), "hullprod-ref-venv"))
+    ap.add_argument("--hulls", default=HULLS)
+    args = ap.parse_args()
+    files = sorted(glob.glob(os.path.join(args.hulls, "*.ig*s")) + glob.glob(os.path.join(args.hulls, "*.st*p")))
+    if not files:
+        sys.exit("no BRep hulls found in %s" % args.hulls)
+    exe = ensure_reference_venv(args.venv) if args.reference else None
+    print("%-30s %9s %11s %12s  %-58s" % ("hull", "ours [s]", "points", "I_D", "statuses (I_D I_D+ I_D- flat single ell saddle)"))
+    rows = []
+    for f in files:
+        name = os.path.basename(f)
+        ours = run_ours(f, LREF.get(name))
+        ref = run_reference(exe, f, LREF.get(name)) if exe else None
+        rows.append((name, ours, ref))
+        print("%-30s %9.2f %11s %12s  %s" % (name, ours["wall"], ours.get("points"),
+                                            "%.6g" % ours["I_D"] if ours.get("I_D") is not None else "null",
+                                            " ".join(ours.get("statuses", [ours.get("error", "")]))))
+        if ref:
+            print("%-30s %9.2f %11s %12s  reference hullprod 1.0.1: %s UNCONVERGED mentions; %.1fx slower"
+                  % ("", ref["wall"], "", "%.6g" % ref["I_D"] if isinstance(ref.get("I_D"), (int, float)) else "null",
+                     ref.get("unconverged", ref.get("error")), ref["wall"] / ours["wall"]))
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
