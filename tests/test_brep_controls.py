@@ -57,9 +57,14 @@ def test_open_cylinder():
 
 
 def test_saddle_closed_form():
+    # At the default local tolerance (1e-4) the saddle's smooth integrand is accepted after
+    # one refinement, 3.4e-9 from the closed form; the 1e-9 goal needs rtol 1e-6 (measured
+    # 4e-13). Both are asserted.
     r = assess(saddle_face(), lref=2.0)
-    assert r.signature["I_D"] == pytest.approx(SADDLE_I_D, rel=RTOL_ID * 10)  # reference has 14 digits
-    assert r.signature["I_D_minus"] == pytest.approx(SADDLE_I_D, rel=RTOL_ID * 10)
+    assert r.signature["I_D"] == pytest.approx(SADDLE_I_D, rel=1e-8)
+    r = assess(saddle_face(), lref=2.0, rtol=1e-6)
+    assert r.signature["I_D"] == pytest.approx(SADDLE_I_D, rel=RTOL_ID)
+    assert r.signature["I_D_minus"] == pytest.approx(SADDLE_I_D, rel=RTOL_ID)
     assert r.signature["I_D_plus"] == 0.0
     np.testing.assert_allclose(fractions(r), [0, 0, 0, 1], atol=ATOL_CLASS)
 
@@ -73,8 +78,14 @@ def test_torus_values_and_class_fractions():
     assert set(statuses(r).values()) == {"VALID"}
 
 
+#: Independent semi-analytical half-Wigley reference: nested scipy quad of the graph
+#: y(x, z), split at the K = 0 roots (epsrel 1e-12): int|K| dA / A.
+WIGLEY_I_D_QUAD = 0.3206366224355565 / 0.07439531552478891
+
+
 def test_half_wigley_reference():
     r = assess(half_wigley_shape(), lref=1.0)
+    assert r.signature["I_D"] == pytest.approx(WIGLEY_I_D_QUAD, rel=RTOL_ID)
     # The published reference has 9 significant digits (rounding up to 1.2e-9 relative).
     assert r.signature["I_D"] == pytest.approx(WIGLEY_REFERENCE["I_D"], rel=2e-9)
     assert r.signature["I_D_plus"] == pytest.approx(WIGLEY_REFERENCE["I_D_plus"], rel=3e-9)
