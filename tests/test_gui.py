@@ -133,6 +133,14 @@ def test_colour_maps_one_colour_per_vertex(gui):
     assert len(rec["Developability"]["ticks"]) == 5
 
 
+def test_verification_menu_runs_a_study_and_writes_the_report(gui):
+    rec = step(gui, "verification_menu")
+    assert len(rec["commands"]) == 4
+    assert not [m for m in rec["messages"] if m[0] == "error"], rec["messages"]
+    assert rec["report"].endswith("report.html") and rec["html_bytes"] > 1000
+    assert rec["has_threshold_table"]
+
+
 def test_validity_panel(gui):
     rec = step(gui, "validity_panel")
     rows = rec["rows"]

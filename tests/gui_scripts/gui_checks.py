@@ -222,6 +222,26 @@ def _():
     return out
 
 
+@step("verification_menu")
+def _():
+    from hullprod_wb.gui import dialogs
+    a = STATE["a_wigley"]
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    before = len(dialogs.LOG)
+    FreeCADGui.runCommand("HullProd_StudyThresholds")
+    process(30)
+    msgs = dialogs.LOG[before:]
+    report = [m[2].split("\n")[-1] for m in msgs if m[0] == "info"]
+    path = report[0] if report else ""
+    html = open(path).read() if path and os.path.exists(path) else ""
+    return {"commands": [c for c in ("HullProd_StudySameFace", "HullProd_StudyRefinement",
+                                     "HullProd_StudyRepresentation", "HullProd_StudyThresholds")
+                         if c in FreeCADGui.listCommands()],
+            "messages": [list(m) for m in msgs], "report": path, "html_bytes": len(html),
+            "has_threshold_table": "1e-05" in html or "1e-5" in html}
+
+
 @step("validity_panel")
 def _():
     from hullprod_wb.gui import validity_panel
