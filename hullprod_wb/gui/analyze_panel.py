@@ -195,9 +195,5 @@ class AnalyzePanel:
 
 
 def show_analyze_panel(sources):
-    import FreeCADGui
-    panel = AnalyzePanel(sources)
-    if FreeCADGui.Control.activeDialog():
-        FreeCADGui.Control.closeDialog()
-    FreeCADGui.Control.showDialog(panel)
-    return panel
+    from .qt import show_task_panel
+    return show_task_panel(AnalyzePanel(sources))

@@ -116,9 +116,5 @@ class ComparePanel:
 
 
 def show_compare_panel(analyses):
-    import FreeCADGui
-    panel = ComparePanel(analyses)
-    if FreeCADGui.Control.activeDialog():
-        FreeCADGui.Control.closeDialog()
-    FreeCADGui.Control.showDialog(panel)
-    return panel
+    from .qt import show_task_panel
+    return show_task_panel(ComparePanel(analyses))

@@ -248,9 +248,5 @@ class ValidityPanel:
 
 def show_validity_panel(obj):
     """Open the panel for analysis obj in the task view (closing another open task)."""
-    import FreeCADGui
-    panel = ValidityPanel(obj)
-    if FreeCADGui.Control.activeDialog():
-        FreeCADGui.Control.closeDialog()
-    FreeCADGui.Control.showDialog(panel)
-    return panel
+    from .qt import show_task_panel
+    return show_task_panel(ValidityPanel(obj))
