@@ -32,3 +32,17 @@ def test_dtmb5415_hull_faces_converged_improper_integral():
     assert [row["face"] for row in r.provenance["faces"]] == [1, 2]
     # Face1 (bow, sonar dome) carries most of the |K| integral on under a fifth of the area
     assert r.provenance["concentrated_faces"] == [] or r.provenance["concentrated_faces"][0]["face"] == 1
+
+
+def test_catamaran_unclosed_trim_loops_use_the_edge_polygon():
+    """Face6 of the catamaran STEP has p-curves whose ends do not meet: the face is
+    integrated over the polygon of its 3-D edges and the records say so."""
+    from hullprod_wb import assess
+    r = assess(shared_hull("brep/catamaran_demihull.step"), faces=[6], with_fields=False)
+    row = r.provenance["faces"][0]
+    assert row["domain"].startswith("polygon from the 3-D edges")
+    # a plane: flat everywhere, and its area agrees with OpenCascade's (good to ~1e-4)
+    assert r.signature["I_D"] == 0.0 and r.signature["a_C"]["flat"] == 1.0
+    assert r.integrals.represented_area == pytest.approx(r.provenance["occ_area"], rel=1e-4)
+    assert r.validity["a_flat"].status.value == "CAUTION"
+    assert "do not close" in r.validity["I_D"].reason

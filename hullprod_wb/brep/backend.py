@@ -143,11 +143,43 @@ class FaceAssessment:
         return self.quad
 
 
+#: Deflection of the 3-D edge polygons of a fallback domain, relative to the face's size.
+POLYGON_DEFLECTION = 1e-6
+
+
+def polygon_domain(face):
+    """Fallback trimmed domain when the face's p-curves do not form closed loops: each wire
+    discretised in 3-D (deflection POLYGON_DEFLECTION of the face's size), its points
+    projected into the face's parameter space, joined by straight lines (closed by
+    construction). Exact for straight trims of planes; otherwise an approximation that the
+    validity record names."""
+    from .trimmed_domain import NurbsCurve2D
+    size = max(face.BoundBox.DiagonalLength, 1e-300)
+    surf = face.Surface
+    curves = []
+    for wire in face.Wires:
+        pts = wire.discretize(Deflection=POLYGON_DEFLECTION * size)
+        uv = np.array([surf.parameter(p) for p in pts], dtype=float)
+        if len(uv) > 1 and np.allclose(uv[0], uv[-1]):
+            uv = uv[:-1]
+        for i in range(len(uv)):
+            a, b = uv[i], uv[(i + 1) % len(uv)]
+            if np.any(a != b):
+                curves.append(NurbsCurve2D.line(a, b))
+    domain = TrimmedDomain.from_curves(curves)
+    return domain
+
+
 def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
     """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
     separately through a graded map (singular.GradedQuadrantField), then audited."""
     ff = FaceField(face)
-    domain = TrimmedDomain.from_face(face)
+    try:
+        domain = TrimmedDomain.from_face(face)
+        domain.fallback = None
+    except InputError as exc:
+        domain = polygon_domain(face)
+        domain.fallback = " ".join(str(exc).split())
     u_breaks, v_breaks = ff.evaluator.continuity_breaks(urange=domain.u_range, vrange=domain.v_range)
     deg = singular.find_degenerate(ff, domain, u_breaks, v_breaks)
     quads = singular.neighbourhood_quadrants(deg, domain, u_breaks, v_breaks) if deg else []
@@ -228,6 +260,8 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
             "status": status.value, "converged": bool(r.all_converged),
             "points": int(f.quad.n_points),
             "depth_reached": int(r.depth_reached), "trimmed": not f.domain.is_rectangle,
+            "domain": ("polygon from the 3-D edges (%s)" % f.domain.fallback) if f.domain.fallback
+            else "exact p-curves",
             "degenerate": f.degenerate.to_dict(),
         })
     return rows
@@ -249,6 +283,7 @@ def metric_validity(faces, integrals, values, opts, history):
     audits = [a for f in faces for a in f.audits]
     verdicts = [a["verdict"] for a in audits]
     deg_count = sum(len(f.degenerate.points) + len(f.degenerate.sides) for f in faces)
+    fallback = [f.number for f in faces if getattr(f.domain, "fallback", None)]
     rep, valid = integrals.represented_area, integrals.valid_area
     out = {}
     for m in METRICS:
@@ -292,6 +327,12 @@ def metric_validity(faces, integrals, values, opts, history):
             rec = MetricValidity(Status.CAUTION, values[m],
                                  "degenerate points whose neighbourhood could not be shown regular or convergent",
                                  "singular_set_unresolved", rep, valid, evidence)
+        elif fallback:
+            evidence["approximate_domains"] = fallback
+            rec = MetricValidity(Status.CAUTION, values[m],
+                                 "face(s) %s: trim curves do not close; their domain is a polygon from the "
+                                 "3-D edges" % ",".join(str(n) for n in fallback), "approximate_trim_domain",
+                                 rep, valid, evidence)
         else:
             reason = ""
             code = "converged"
@@ -304,6 +345,10 @@ def metric_validity(faces, integrals, values, opts, history):
             rec = MetricValidity(Status.VALID, values[m], reason, code, rep, valid, evidence)
         if m == "I_D" and history:
             rec.evidence["refinement_sequence"] = history
+        if fallback and rec.code != "approximate_trim_domain":
+            rec.evidence["approximate_domains"] = fallback
+            rec.reason = (rec.reason + "; " if rec.reason else "") + (
+                "face(s) %s: trim curves do not close, domain from the 3-D edges" % ",".join(map(str, fallback)))
         out[m] = rec
     return out
 
