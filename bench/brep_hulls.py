@@ -69,8 +69,10 @@ def run_reference(exe, path, lref):
     cmd = [exe, path, "--out", out, "--overwrite", "--no-plots", "--quiet"]
     if lref:
         cmd += ["--lref", str(lref)]
+    # a fresh result cache each run, so that nothing is reused between runs
+    env = dict(os.environ, HULLPROD_CACHE_DIR=tempfile.mkdtemp(prefix="hullprod-ref-cache-"))
     t = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True)
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t
     res = {"wall": wall}
     sig = os.path.join(out, "signature.json")
