@@ -35,8 +35,9 @@ and the K integrals and class areas are line integrals over the parent:
   and K are bracketed between the samples ZS (and around extrema of one sign that get
   near zero between samples) and refined together (solve_bracketed, one field call per
   step); each piece between crossings has one class and one sign of K, and J, K J are
-  integrated on it by Gauss-Kronrod 3/7 (on pieces shorter than SHORT_PIECE of the line,
-  over their interpolants at ZS);
+  integrated on it by Gauss-Kronrod 3/7, with the integral of their interpolants at ZS
+  as the comparison for the error estimate (on pieces shorter than SHORT_PIECE of the
+  line, the interpolants, against those of lower degree);
 - in sigma the cell is cut where level curves cross its t edges (kinks of the line values)
   and where they are tangent to the lines (found between lines whose crossing counts
   differ; square-root ends, so those pieces get a clustered map), and the pieces are
@@ -68,10 +69,15 @@ N_LEVELS = 5
 N_SMOOTH = 5
 #: Quantities below this fraction of their natural scale (A, tau_K A) count as zero.
 ZERO_SCALE = 1e-2
+#: The quadtree's own acceptance uses this fraction of the tolerances of the smooth
+#: quantities (cheap to refine; their error then stays well inside rtol).
+TREE_SAFETY = 1e-2
 #: Part of the remaining error budget a level may use up by accepting cells.
 ACCEPT_FRACTION = 0.5
 #: Widening of a cell's sampled K (H) range when testing whether it meets a level.
 STRADDLE_MARGIN = 0.5
+#: Relative precision of level crossings on a line (of the line's parameter range).
+CROSSING_RTOL = 1e-13
 #: Golden-section steps locating the extremum of a level function along a line.
 GOLDEN_STEPS = 16
 #: A dip of three samples is searched for crossings when the vertex of their parabola gets
@@ -329,11 +335,12 @@ XK, WK, WG = _kronrod([0.0, 0.4342437493468026, 0.7745966692414834, 0.9604912687
 #: at the Kronrod nodes.
 EDGE_XI = 1e-5
 XI9 = np.concatenate(([EDGE_XI], XK, [1.0 - EDGE_XI]))
-#: Samples of a line (fraction of its length): the ends and the 3/7 Kronrod nodes. They
-#: bracket level crossings and carry the degree-8 interpolants of J and K J that integrate
-#: pieces shorter than SHORT_PIECE of the line (against degree 6 on the inner 7 for the
-#: error estimate); longer pieces get their own Gauss-Kronrod rule.
-ZS = np.concatenate(([0.0], XK, [1.0]))
+#: Samples of a line (fraction of its length): next to the ends (INSIDE: a cell's edge
+#: may be a knot line or a box edge where the field jumps; every sample stays in the cell)
+#: and at the 3/7 Kronrod nodes. They bracket level crossings and carry the degree-8
+#: interpolants of J and K J (degree 6 on the inner 7 for error estimates).
+INSIDE = 1e-9
+ZS = np.concatenate(([INSIDE], XK, [1.0 - INSIDE]))
 SHORT_PIECE = 1e-3
 
 
@@ -352,16 +359,10 @@ M_LO = _piece_weights(ZS[1:-1])
 
 
 def _kronrod_error(F, Fk):
-    """Error estimate of Gauss-Kronrod 3/7 sums Fk = sum_k WK_k F_k (n, q) from the node
-    values F (n, 7, q) (on [0, 1], Jacobians included): the raw |G3 - K7| scaled as in
-    QUADPACK, resasc min(1, (200 |G3 - K7| / resasc)^1.5) with resasc = sum_k WK_k |F_k -
-    Fk|, which keeps the raw estimate for rough integrands and lowers it towards the real
-    error of K7 for smooth ones."""
-    raw = np.abs(Fk - np.einsum("nkq,k->nq", F, WG))
-    resasc = np.einsum("nkq,k->nq", np.abs(F - Fk[:, None, :]), WK)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        scaled = resasc * np.minimum(1.0, (200.0 * raw / resasc) ** 1.5)
-    return np.where(resasc > 0.0, scaled, raw)
+    """Error estimate |K7 - G3| (n, q) of Gauss-Kronrod 3/7 sums Fk = sum_k WK_k F_k from
+    the node values F (n, 7, q) (on [0, 1], Jacobians included): the error of the nested
+    3-point rule, a safe bound for the 7-point one."""
+    return np.abs(Fk - np.einsum("nkq,k->nq", F, WG))
 
 
 def _greedy_accept(err, budget, group=None):
@@ -616,19 +617,29 @@ class _Integrator:
             Qtot = sum((p["Q"].sum(0) for p in self.accepted), unit["Q"].sum(0))
             tol = self._tolerance(Qtot)
             budget = tol - self.err_acc
-            if np.all(err_tree.sum(0) <= budget):
+            tree_budget = TREE_SAFETY * budget[:N_SMOOTH]
+            if np.all(err_tree[:, :N_SMOOTH].sum(0) <= tree_budget):
                 accept = np.ones(na, bool)
             else:
-                accept = _greedy_accept(err_tree[:, :N_SMOOTH], budget[:N_SMOOTH])
+                accept = _greedy_accept(err_tree[:, :N_SMOOTH], tree_budget)
             lined = mixed & (accept | last)
             if lined.any():
                 P_tot = sum((p["pmeas"].sum() for p in self.accepted), unit["pmeas"].sum())
                 sub = {k: v[lined] for k, v in unit.items()}
                 share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
-                val, lerr, good = self._lines(sub, 0.5 * share[:, LINE_Q] * tol[None, LINE_Q])
+                val, lerr, _ = self._lines(sub, 0.5 * share[:, LINE_Q] * tol[None, LINE_Q])
+                # the quadtree's children sums are an independent check of the K integrals:
+                # a discrepancy beyond the line estimate that the quadtree also sees (its own
+                # estimate) marks a rough or singular integrand the lines did not resolve
+                kq = slice(2, N_SMOOTH)
+                gap = np.minimum(np.abs(val[:, :3] - sub["Q"][:, kq]), err[lined, kq])
+                lerr[:, :3] = np.maximum(lerr[:, :3], gap)
                 unit["Q"][lined, LINE_Q] = val
                 err[lined, LINE_Q] = lerr
-                accept[np.nonzero(lined)[0][~good]] = False
+            # the candidates again, on every quantity with the lines' errors (global budget)
+            c = np.nonzero(accept)[0]
+            if c.size and not np.all(err[c].sum(0) <= budget):
+                accept[c] = _greedy_accept(err[c], budget)
             unit["err"] = err
             if accept.any():
                 self.err_acc = self.err_acc + err[accept].sum(0)
@@ -712,6 +723,7 @@ class _Integrator:
             fe = sg[hit] * fe[hit]
             li = np.concatenate((li, pi[hit], pi[hit]))
             q = np.concatenate((q, pq[hit], pq[hit]))
+            j = np.concatenate((j, pj[cand][hit], pj[cand][hit] + 1))
             a = np.concatenate((a, lo_[hit], xe[hit]))
             b = np.concatenate((b, xe[hit], hi_[hit]))
             fa = np.concatenate((fa, y0[cand][hit], fe))
@@ -728,9 +740,9 @@ class _Integrator:
             return li, q, roots, Js, KJs
         if li.size == 0:
             return li, q, np.empty(0), Js, KJs
-        xtol = 1e-14 * (x1 - x0)[li]
-        # K -+ tau_K next to a root of K in the same interval: solved after it
-        key = li * (m - 1) + np.searchsorted(ZS, (a - x0[li]) / (x1 - x0)[li], side="right") - 1
+        xtol = CROSSING_RTOL * (x1 - x0)[li]
+        # K -+ tau_K next to a root of K in the same sample interval: solved after it
+        key = li * (m - 1) + j
         k_keys = key[q == 4]
         late = (q < 2) & np.isin(key, k_keys)
         early = ~late
@@ -758,8 +770,10 @@ class _Integrator:
         their error estimates, count (L, 5) crossings of each level, pair (L, 5, 2) the
         closest two crossings of each level (NaN when fewer than two). The pieces of a line
         between crossings have the class and the sign of K of their midpoint; J and K J are
-        integrated by Gauss-Kronrod 3/7 on pieces longer than SHORT_PIECE of the line, and
-        exactly over their interpolants at the samples ZS on shorter ones."""
+        integrated by Gauss-Kronrod 3/7 on pieces longer than SHORT_PIECE of the line (error
+        estimate: the difference to the integral of their degree-8 interpolants at the
+        samples ZS), over those interpolants on shorter ones (error estimate: against the
+        degree-6 interpolants at the inner samples)."""
         L = pid.size
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
@@ -784,21 +798,22 @@ class _Integrator:
         scale = (b - a) * width[lid]
         vals = np.zeros((2, lid.size))
         errs = np.zeros((2, lid.size))
-        for row, f in enumerate((J, KJ)):
-            Fl = f[:nl * XK.size].reshape(nl, XK.size, 1) * scale[long_, None, None]
-            vk = np.einsum("nkq,k->nq", Fl, WK)
-            vals[row, long_] = vk[:, 0]
-            errs[row, long_] = _kronrod_error(Fl, vk)[:, 0]
-        if nl < lid.size:
-            sh = ~long_
-            LV = np.polynomial.legendre.legvander
-            dz = 0.5 * (LV(2.0 * (b[sh] - t0[lid[sh]]) / span[sh] - 1.0, ZS.size)
-                        - LV(2.0 * (a[sh] - t0[lid[sh]]) / span[sh] - 1.0, ZS.size))
-            w_hi = (dz @ M_HI) * (span * width[lid])[sh, None]
-            w_lo = (dz[:, :ZS.size - 1] @ M_LO) * (span * width[lid])[sh, None]
-            for row, fz in enumerate((Js[lid[sh]], KJs[lid[sh]])):
-                vals[row, sh] = np.einsum("sm,sm->s", w_hi, fz)
-                errs[row, sh] = np.abs(vals[row, sh] - np.einsum("sm,sm->s", w_lo, fz[:, 1:-1]))
+        # every piece: integrals of the interpolants at the line's samples ZS
+        LV = np.polynomial.legendre.legvander
+        dz = 0.5 * (LV(2.0 * (b - t0[lid]) / span - 1.0, ZS.size)
+                    - LV(2.0 * (a - t0[lid]) / span - 1.0, ZS.size))
+        w_hi = (dz @ M_HI) * (span * width[lid])[:, None]
+        w_lo = (dz[:, :ZS.size - 1] @ M_LO) * (span * width[lid])[:, None]
+        sh = ~long_
+        for row, (f, fz) in enumerate(((J, Js[lid]), (KJ, KJs[lid]))):
+            interp = np.einsum("sm,sm->s", w_hi, fz)
+            # long pieces: Kronrod value, error estimated against the interpolant
+            vk = (f[:nl * XK.size].reshape(nl, XK.size) @ WK) * scale[long_]
+            vals[row, long_] = vk
+            errs[row, long_] = np.abs(vk - interp[long_])
+            # short pieces: the interpolant, against the degree-6 one
+            vals[row, sh] = interp[sh]
+            errs[row, sh] = np.abs(interp[sh] - np.einsum("sm,sm->s", w_lo[sh], fz[sh, 1:-1]))
         # per piece: |K| J, max(K,0) J, max(-K,0) J, then J into its class column
         P = np.zeros((lid.size, N_LINE_Q))
         Pe = np.zeros((lid.size, N_LINE_Q))
@@ -865,7 +880,8 @@ class _Integrator:
         pid = cells["pid"]
         n = pid.size
         E = np.concatenate((np.arange(n), np.arange(n)))
-        tE = np.concatenate((cells["t0"], cells["t1"]))
+        h = INSIDE * (cells["t1"] - cells["t0"])
+        tE = np.concatenate((cells["t0"] + h, cells["t1"] - h))
 
         def point(x, i):
             u, _ = self.patches.u_of_sigma(pid[E[i]], x)

@@ -42,8 +42,9 @@ def solve_bracketed(fun, x0, x1, f0, f1, xtol, maxiter=100):
     """Roots of fun in the brackets [x0, x1] with f0 * f1 <= 0, all at once, (n,) float.
 
     fun(x, index) evaluates the function at x (m,) for the brackets index (m,) int; one
-    call per iteration for all brackets still active. Chandrupatla's method: inverse
-    quadratic interpolation when the last three points allow it, bisection otherwise, with
+    call per iteration for all brackets still active. Chandrupatla's method, started with a
+    regula falsi step: inverse quadratic interpolation when the last three points allow
+    it, bisection otherwise, with
     steps at least the tolerance away from the bracket ends; a bracket ends when it is
     narrower than about xtol (scalar or (n,)) + 4 eps |x|, at an exact zero, or at a
     non-finite value. Returns the bracket end of smaller |f|.
@@ -55,7 +56,12 @@ def solve_bracketed(fun, x0, x1, f0, f1, xtol, maxiter=100):
     c, fc = a.copy(), fa.copy()
     n = a.size
     xtol = np.broadcast_to(np.asarray(xtol, dtype=float), (n,))
-    t = np.full(n, 0.5)
+    # first step: regula falsi (then inverse quadratic interpolation or bisection)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.nan_to_num(fa / (fa - fb), nan=0.5)
+    tl0 = np.minimum((2.0 * np.finfo(float).eps * np.abs(a) + 0.5 * xtol)
+                     / np.maximum(np.abs(b - a), 1e-300), 0.5)
+    t = np.clip(t, tl0, 1.0 - tl0)
     xm = np.where(np.abs(fa) < np.abs(fb), a, b)
     active = (fa != 0.0) & (fb != 0.0)
     for _ in range(maxiter):
