@@ -5,7 +5,7 @@ import io
 from ..app.compare import compare_analyses
 from ..core.constants import METRIC_LABELS
 from . import wording
-from .qt import QtCore, QtGui, QtWidgets, close_button
+from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
 
 def chart_png(cmp, width_in=7.0, height_in=3.2, dpi=100):
@@ -45,7 +45,7 @@ def chart_png(cmp, width_in=7.0, height_in=3.2, dpi=100):
     return buf.getvalue()
 
 
-class ComparePanel:
+class ComparePanel(CloseOnlyPanel):
     """Task panel: flags, table of values and statuses, bar chart."""
 
     def __init__(self, analyses):
@@ -105,14 +105,6 @@ class ComparePanel:
             fh.write(self.png)
         return path
 
-    def getStandardButtons(self):  # noqa: N802 - FreeCAD API
-        return close_button()
-
-    def reject(self):
-        return True
-
-    def accept(self):
-        return True
 
 
 def show_compare_panel(analyses):

@@ -11,7 +11,7 @@ except ImportError:  # pragma: no cover - outside FreeCAD
     except ImportError:
         from PySide6 import QtCore, QtGui, QtWidgets
 
-__all__ = ["QtCore", "QtGui", "QtWidgets", "close_button", "show_task_panel"]
+__all__ = ["QtCore", "QtGui", "QtWidgets", "close_button", "show_task_panel", "CloseOnlyPanel"]
 
 
 def close_button():
@@ -27,3 +27,16 @@ def show_task_panel(panel):
         FreeCADGui.Control.closeDialog()
     FreeCADGui.Control.showDialog(panel)
     return panel
+
+
+class CloseOnlyPanel:
+    """Base of read-only task panels: a single Close button that just closes the panel."""
+
+    def getStandardButtons(self):  # noqa: N802 - FreeCAD API
+        return close_button()
+
+    def reject(self):
+        return True
+
+    def accept(self):
+        return True

@@ -10,7 +10,7 @@ from ..app import analysis as app_analysis
 from ..core.constants import METRIC_LABELS, METRICS
 from . import colormaps, wording
 from .legend import make_legend_widget
-from .qt import QtCore, QtGui, QtWidgets, close_button
+from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
 FACE_COLUMNS = ("face", "surface", "area", "share", "I_D", "I_D+", "I_D-", "flat", "single", "elliptic",
                 "saddle", "status")
@@ -38,7 +38,7 @@ def _fill_tree(parent, value):
             _fill_tree(node, val)
 
 
-class ValidityPanel:
+class ValidityPanel(CloseOnlyPanel):
     """Task panel: signature table, provenance, per-face table, colour maps, JSON."""
 
     def __init__(self, obj):
@@ -235,15 +235,6 @@ class ValidityPanel:
         QtWidgets.QApplication.clipboard().setText(self.obj.ResultJSON)
         return self.obj.ResultJSON
 
-    # -- task dialog ----------------------------------------------------------------------------
-    def getStandardButtons(self):  # noqa: N802 - FreeCAD API
-        return close_button()
-
-    def reject(self):
-        return True
-
-    def accept(self):
-        return True
 
 
 def show_validity_panel(obj):
