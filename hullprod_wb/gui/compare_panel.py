@@ -106,7 +106,6 @@ class ComparePanel(CloseOnlyPanel):
         return path
 
 
-
 def show_compare_panel(analyses):
     from .qt import show_task_panel
     return show_task_panel(ComparePanel(analyses))

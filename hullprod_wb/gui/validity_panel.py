@@ -236,7 +236,6 @@ class ValidityPanel(CloseOnlyPanel):
         return self.obj.ResultJSON
 
 
-
 def show_validity_panel(obj):
     """Open the panel for analysis obj in the task view (closing another open task)."""
     from .qt import show_task_panel
