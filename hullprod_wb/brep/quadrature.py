@@ -76,15 +76,22 @@ TREE_SAFETY = 1e-2
 ACCEPT_FRACTION = 0.5
 #: Widening of a cell's sampled K (H) range when testing whether it meets a level.
 STRADDLE_MARGIN = 0.5
-#: Relative precision of level crossings on a line (of the line's parameter range).
-CROSSING_RTOL = 1e-13
-#: Golden-section steps locating the extremum of a level function along a line.
-GOLDEN_STEPS = 16
+#: Relative precision of level crossings on a line (of the line's parameter range), and
+#: the most steps spent on one (every step is a field call for all of them): a near-double
+#: crossing (a level curve almost tangent to the line, where the two crossings bound a
+#: sliver of vanishing area) converges only like bisection and may end within 2^-14 of its
+#: sample interval.
+CROSSING_RTOL = 1e-12
+CROSSING_STEPS = 14
+#: Parabolic-interpolation steps locating the extremum of a level function along a line.
+PARABOLIC_STEPS = 3
 #: A dip of three samples is searched for crossings when the vertex of their parabola gets
 #: within this fraction of the middle sample's value from zero.
 DIP_FRACTION = 0.2
-#: Relative precision of a tangency cut in sigma (a cut off by d leaves an error ~ d^1.5).
-TANGENT_RTOL = 1e-8
+#: Relative precision of a tangency cut in sigma (a cut off by d leaves an error ~ d^1.5),
+#: and the most steps spent on finding one.
+TANGENT_RTOL = 1e-6
+TANGENT_STEPS = 10
 #: Line pieces are not halved further once halving keeps this much of their error, nor in a
 #: cell that holds this many pieces (the quadtree refines such cells instead).
 STALL_RATIO = 0.45
@@ -420,26 +427,42 @@ def _count_and_pairs(line, level, roots, L):
     return dict(count=count, pair=pair)
 
 
-def _golden_min(fun, a, b, steps=None):
-    """Minimum of fun on [a, b] (n,) by golden section, all at once: (x (n,), f (n,)).
+def _parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
+    """Local minima by successive parabolic interpolation, all at once.
 
-    fun(x, index) evaluates at x (m,) for the intervals index (m,); one call per step."""
-    r = 0.5 * (np.sqrt(5.0) - 1.0)
-    a, b = np.array(a, dtype=float), np.array(b, dtype=float)
-    idx = np.arange(a.size)
-    c, d = b - r * (b - a), a + r * (b - a)
-    fc, fd = fun(c, idx), fun(d, idx)
-    for _ in range(GOLDEN_STEPS if steps is None else steps):
-        left = ~(fc >= fd)  # NaN counts as larger
-        b = np.where(left, d, b)
-        a = np.where(left, a, c)
-        c_new = np.where(left, b - r * (b - a), d)
-        d_new = np.where(left, c, a + r * (b - a))
-        f_new = fun(np.where(left, c_new, d_new), idx)
-        fc, fd = np.where(left, f_new, fd), np.where(left, fc, f_new)
-        c, d = c_new, d_new
-    take_c = ~(fc >= fd)
-    return np.where(take_c, c, d), np.where(take_c, fc, fd)
+    x, f (n, 3): a bracket x0 < x1 < x2 with f1 <= f0, f2 (the middle one lowest).
+    fun(x, index) evaluates at x (m,) for the brackets index (m,); one call per step. Each
+    step evaluates the vertex of the parabola through the bracket (or, when that is not
+    usable, a point 0.38 into the longer side) and keeps the lowest point with its two
+    neighbours. Returns x (n,) and f (n,) of the lowest point."""
+    x, f = np.array(x, dtype=float), np.array(f, dtype=float)
+    idx = np.arange(x.shape[0])
+    for _ in range(steps):
+        x0, x1, x2 = x.T
+        f0, f1, f2 = f.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            p = (x1 - x0) ** 2 * (f1 - f2) - (x1 - x2) ** 2 * (f1 - f0)
+            q = (x1 - x0) * (f1 - f2) - (x1 - x2) * (f1 - f0)
+            xv = x1 - 0.5 * p / q
+        gap = 1e-3 * (x2 - x0)
+        usable = np.isfinite(xv) & (xv > x0 + gap) & (xv < x2 - gap) & (np.abs(xv - x1) > gap)
+        longer_right = (x2 - x1) > (x1 - x0)
+        fallback = np.where(longer_right, x1 + 0.381966 * (x2 - x1), x1 - 0.381966 * (x1 - x0))
+        xn = np.where(usable, xv, fallback)
+        fn = np.asarray(fun(xn, idx), dtype=float)
+        better = fn < f1
+        left = xn < x1
+        # new bracket: (x0, xn, x1), (xn, x1, x2), (x1, xn, x2) or (x0, x1, xn)
+        nx = np.where((left & better)[:, None], np.stack((x0, xn, x1), 1),
+                      np.where((left & ~better)[:, None], np.stack((xn, x1, x2), 1),
+                               np.where(better[:, None], np.stack((x1, xn, x2), 1),
+                                        np.stack((x0, x1, xn), 1))))
+        nf = np.where((left & better)[:, None], np.stack((f0, fn, f1), 1),
+                      np.where((left & ~better)[:, None], np.stack((fn, f1, f2), 1),
+                               np.where(better[:, None], np.stack((f1, fn, f2), 1),
+                                        np.stack((f0, f1, fn), 1))))
+        x, f = nx, np.where(np.isfinite(nf), nf, np.inf)
+    return x[:, 1], f[:, 1]
 
 
 def _split_pieces(pc, piece, at):
@@ -671,20 +694,19 @@ class _Integrator:
         point(x, i) -> (u, v) maps parameters x (m,) of segments i (m,) to the plane.
         Brackets: sign changes between the samples at ZS, and, where three samples of one
         sign dip towards zero and their parabola's vertex gets within DIP_FRACTION of zero,
-        the two sides of the extremum (golden section) when it has the other sign. Levels of
-        H only matter where |K| <= tau_K and are skipped elsewhere. The roots of K are found
-        first; a root of K -+ tau_K in the same sample interval is then bracketed from that
-        root, which is next to it for small tau_K. refine=False only counts crossings
+        the two sides of the extremum (_parabolic_min) when it has the other sign. Levels of
+        H only matter where |K| <= tau_K and are skipped elsewhere. The brackets are refined
+        together (one field call per step of solve_bracketed). refine=False only counts crossings
         (approximate positions from the samples, no further field calls). Returns segment
-        index (k,), level index (k,), x (k,), and J, K J at the samples ((n, 9) each, 0
-        where not regular)."""
+        index (k,), level index (k,), x (k,), and the samples: dict of (n, 9) arrays J,
+        KJ (K J; both 0 where not regular), K, H, reg."""
         n = x0.size
         m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
         J, K, H, reg = self.f(*point(xs.ravel(), np.repeat(np.arange(n), m)))
         G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, m, N_LEVELS)
-        Js = np.where(reg, J, 0.0).reshape(n, m)
-        KJs = np.where(reg, K * J, 0.0).reshape(n, m)
+        S = dict(J=np.where(reg, J, 0.0).reshape(n, m), KJ=np.where(reg, K * J, 0.0).reshape(n, m),
+                 K=K.reshape(n, m), H=H.reshape(n, m), reg=reg.reshape(n, m))
         near = (np.abs(np.where(reg, K, np.inf)) <= self.tau_K).reshape(n, m)  # H matters
         pos = G > 0.0
         fin = np.isfinite(G)
@@ -718,12 +740,13 @@ class _Integrator:
         if cand.size and refine:
             pi, pq, sg = pi[cand], pq[cand], sg[cand]
             lo_, hi_ = x_0[cand], x_2[cand]
-            xe, fe = _golden_min(lambda x, idx: sg[idx] * g(x, idx, pi, pq), lo_, hi_)
+            xe, fe = _parabolic_min(lambda x, idx: sg[idx] * g(x, idx, pi, pq),
+                                    np.stack((lo_, x_1[cand], hi_), 1),
+                                    sg[:, None] * np.stack((y0[cand], y1[cand], y2[cand]), 1))
             hit = np.nonzero(fe < 0.0)[0]
             fe = sg[hit] * fe[hit]
             li = np.concatenate((li, pi[hit], pi[hit]))
             q = np.concatenate((q, pq[hit], pq[hit]))
-            j = np.concatenate((j, pj[cand][hit], pj[cand][hit] + 1))
             a = np.concatenate((a, lo_[hit], xe[hit]))
             b = np.concatenate((b, xe[hit], hi_[hit]))
             fa = np.concatenate((fa, y0[cand][hit], fe))
@@ -737,31 +760,12 @@ class _Integrator:
             li = np.concatenate((li, pi[cross], pi[cross]))
             q = np.concatenate((q, pq[cross], pq[cross]))
             roots = np.concatenate((roots, xv[cross] - half, xv[cross] + half))
-            return li, q, roots, Js, KJs
+            return li, q, roots, S
         if li.size == 0:
-            return li, q, np.empty(0), Js, KJs
-        xtol = CROSSING_RTOL * (x1 - x0)[li]
-        # K -+ tau_K next to a root of K in the same sample interval: solved after it
-        key = li * (m - 1) + j
-        k_keys = key[q == 4]
-        late = (q < 2) & np.isin(key, k_keys)
-        early = ~late
-        roots = np.empty(li.size)
-        e = np.nonzero(early)[0]
-        roots[e] = solve_bracketed(lambda x, i: g(x, i, li[e], q[e]), a[e], b[e], fa[e], fb[e],
-                                   xtol[e])
-        lt = np.nonzero(late)[0]
-        if lt.size:
-            kk = np.nonzero(q == 4)[0]
-            order = np.argsort(k_keys)
-            r0 = roots[kk[order]][np.searchsorted(k_keys[order], key[lt])]
-            f0 = np.where(q[lt] == 0, -self.tau_K, self.tau_K)  # K(r0) = 0 to rounding
-            left = np.sign(f0) != np.sign(fa[lt])  # the root lies between a and r0
-            na, nb = np.where(left, a[lt], r0), np.where(left, r0, b[lt])
-            nfa, nfb = np.where(left, fa[lt], f0), np.where(left, f0, fb[lt])
-            roots[lt] = solve_bracketed(lambda x, i: g(x, i, li[lt], q[lt]), na, nb, nfa, nfb,
-                                        xtol[lt])
-        return li, q, roots, Js, KJs
+            return li, q, np.empty(0), S
+        roots = solve_bracketed(lambda x, i: g(x, i, li, q), a, b, fa, fb,
+                                CROSSING_RTOL * (x1 - x0)[li], maxiter=CROSSING_STEPS)
+        return li, q, roots, S
 
     def _line_values(self, pid, sig, t0, t1):
         """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)).
@@ -772,45 +776,56 @@ class _Integrator:
         between crossings have the class and the sign of K of their midpoint; J and K J are
         integrated by Gauss-Kronrod 3/7 on pieces longer than SHORT_PIECE of the line (error
         estimate: the difference to the integral of their degree-8 interpolants at the
-        samples ZS), over those interpolants on shorter ones (error estimate: against the
-        degree-6 interpolants at the inner samples)."""
+        samples ZS; a line without crossings is one piece whose Kronrod nodes are samples),
+        over those interpolants on shorter ones (error estimate: against the degree-6
+        interpolants at the inner samples)."""
         L = pid.size
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
         width = hi - lo
-        li, lq, roots, Js, KJs = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1)
+        li, lq, roots, S = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1)
         ar = np.arange(L)
         lid, a, b = _segments(np.concatenate((t0, roots, t1)), np.concatenate((ar, li, ar)))
         span = (t1 - t0)[lid]
-        long_ = (b - a) > SHORT_PIECE * span
-        nl = int(long_.sum())
+        whole = (a == t0[lid]) & (b == t1[lid])  # no crossing: the samples hold the nodes
+        long_ = ((b - a) > SHORT_PIECE * span) & ~whole
+        nl, nw = int(long_.sum()), int(whole.sum())
         # one field call: the Kronrod nodes of long pieces, the midpoints of short ones
         tl = a[long_, None] + (b - a)[long_, None] * XK[None, :]
-        tq = np.concatenate((tl.ravel(), 0.5 * (a + b)[~long_]))
-        lq_ = np.concatenate((np.repeat(lid[long_], XK.size), lid[~long_]))
+        sh = ~long_ & ~whole
+        tq = np.concatenate((tl.ravel(), 0.5 * (a + b)[sh]))
+        lq_ = np.concatenate((np.repeat(lid[long_], XK.size), lid[sh]))
         J, K, H, reg = self.f(u[lq_], lo[lq_] + tq * width[lq_])
-        J, KJ = np.where(reg, J, 0.0), np.where(reg, K * J, 0.0)
-        mid = np.empty(lid.size, int)  # index of each piece's midpoint sample
-        mid[long_] = np.arange(nl) * XK.size + XK.size // 2
-        mid[~long_] = nl * XK.size + np.arange(lid.size - nl)
-        cls = classify(K[mid], H[mid], self.tau_H, self.tau_K, reg[mid])
-        sk = np.sign(np.where(cls >= 0, K[mid], 0.0))
+        # node values of long and whole pieces (7 each), then the short pieces' midpoints
+        inner = (lid[whole], slice(1, -1))
+        J = np.concatenate((np.where(reg, J, 0.0)[:nl * XK.size], S["J"][inner].ravel(),
+                            np.where(reg, J, 0.0)[nl * XK.size:]))
+        Kc = np.concatenate((K[:nl * XK.size], S["K"][inner].ravel(), K[nl * XK.size:]))
+        Hc = np.concatenate((H[:nl * XK.size], S["H"][inner].ravel(), H[nl * XK.size:]))
+        rc = np.concatenate((reg[:nl * XK.size], S["reg"][inner].ravel(), reg[nl * XK.size:]))
+        KJ = np.where(rc, Kc * J, 0.0)
+        mid = np.empty(lid.size, int)  # index of each piece's midpoint value
+        kw = np.concatenate((np.nonzero(long_)[0], np.nonzero(whole)[0]))
+        mid[kw] = np.arange(nl + nw) * XK.size + XK.size // 2
+        mid[sh] = (nl + nw) * XK.size + np.arange(int(sh.sum()))
+        cls = classify(Kc[mid], Hc[mid], self.tau_H, self.tau_K, rc[mid])
+        sk = np.sign(np.where(cls >= 0, Kc[mid], 0.0))
         scale = (b - a) * width[lid]
         vals = np.zeros((2, lid.size))
         errs = np.zeros((2, lid.size))
+        Js, KJs = S["J"], S["KJ"]
         # every piece: integrals of the interpolants at the line's samples ZS
         LV = np.polynomial.legendre.legvander
         dz = 0.5 * (LV(2.0 * (b - t0[lid]) / span - 1.0, ZS.size)
                     - LV(2.0 * (a - t0[lid]) / span - 1.0, ZS.size))
         w_hi = (dz @ M_HI) * (span * width[lid])[:, None]
         w_lo = (dz[:, :ZS.size - 1] @ M_LO) * (span * width[lid])[:, None]
-        sh = ~long_
         for row, (f, fz) in enumerate(((J, Js[lid]), (KJ, KJs[lid]))):
             interp = np.einsum("sm,sm->s", w_hi, fz)
-            # long pieces: Kronrod value, error estimated against the interpolant
-            vk = (f[:nl * XK.size].reshape(nl, XK.size) @ WK) * scale[long_]
-            vals[row, long_] = vk
-            errs[row, long_] = np.abs(vk - interp[long_])
+            # long and whole pieces: Kronrod value, error estimated against the interpolant
+            vk = (f[:(nl + nw) * XK.size].reshape(nl + nw, XK.size) @ WK) * scale[kw]
+            vals[row, kw] = vk
+            errs[row, kw] = np.abs(vk - interp[kw])
             # short pieces: the interpolant, against the degree-6 one
             vals[row, sh] = interp[sh]
             errs[row, sh] = np.abs(interp[sh] - np.einsum("sm,sm->s", w_lo[sh], fz[sh, 1:-1]))
@@ -837,8 +852,8 @@ class _Integrator:
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
         width = hi - lo
-        li, lq, roots, _, _ = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1,
-                                              refine=False)
+        li, lq, roots, _ = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1,
+                                           refine=False)
         return _count_and_pairs(li, lq, roots, pid.size)
 
     def _piece_values(self, pc):
@@ -888,7 +903,7 @@ class _Integrator:
             lo, hi = self.patches.bounds(pid[E[i]], u)
             return u, lo + tE[i] * (hi - lo)
 
-        li, _, roots, _, _ = self._crossings(point, cells["s0"][E], cells["s1"][E])
+        li, _, roots, _ = self._crossings(point, cells["s0"][E], cells["s1"][E])
         return E[li], roots
 
     def _tangent_cuts(self, pc, sig, count, pair):
@@ -897,7 +912,7 @@ class _Integrator:
 
         With h = s g_q (s the sign making h < 0 between the closest crossing pair on the
         line with more crossings), phi(sigma) = min of h along the line over a window about
-        that pair (golden section) has a simple root at the tangency, found by
+        that pair (_parabolic_min) has a simple root at the tangency, found by
         solve_bracketed. Brackets where phi does not change sign, and roots at a piece's
         end (within EDGE_XI of its width), give no cut."""
         p, j, q = np.nonzero(count[:, :-1, :] != count[:, 1:, :])
@@ -927,7 +942,9 @@ class _Integrator:
 
         def phi(sg, i):
             """min over the window of sign * g_q on the lines sg."""
-            return _golden_min(lambda t, k: sign[i[k]] * level(sg[k], t, i[k]), w0[i], w1[i])[1]
+            x3 = np.stack((w0[i], 0.5 * (ta + tb)[i], w1[i]), 1)
+            f3 = (np.repeat(sign[i], 3) * level(np.repeat(sg, 3), x3.ravel(), np.repeat(i, 3))).reshape(-1, 3)
+            return _parabolic_min(lambda t, k: sign[i[k]] * level(sg[k], t, i[k]), x3, f3)[1]
 
         so = sig[p, np.where(more == j, j + 1, j)]
         ar = np.arange(p.size)
@@ -938,7 +955,7 @@ class _Integrator:
         i = np.nonzero(ok)[0]
         w = (pc["sb"] - pc["sa"])[p[i]]
         root = solve_bracketed(lambda x, k: phi(x, i[k]), sm[i], so[i], fm[i], fo[i],
-                               TANGENT_RTOL * w)
+                               TANGENT_RTOL * w, maxiter=TANGENT_STEPS)
         inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
         return p[i][inside], root[inside]
 
@@ -987,7 +1004,7 @@ class _Integrator:
             fits = np.all(total <= budget, 1) & (np.bincount(c[cut], minlength=nc) == 0)
             give_up = stalled | np.any(left < 0.0, 1) | (np.bincount(c, minlength=nc) >= MAX_PIECES)
             done = np.ones(cut.size, bool) if last else ~cut & (
-                fits[c] | give_up[c] | _greedy_accept(err, left, c) | np.all(e_s <= e_t, 1))
+                fits[c] | give_up[c] | _greedy_accept(err, left.sum(0)) | np.all(e_s <= e_t, 1))
             np.add.at(out, c[done], F[done])
             np.add.at(errs, c[done], err[done])
             np.add.at(left, c[done], -err[done])
