@@ -1043,7 +1043,7 @@ class _Integrator:
 
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
-              v_breaks=(), progress=None, recheck=True, class_max_depth=8, reference=None):
+              v_breaks=(), progress=None, recheck=True, class_max_depth=3, reference=None):
     """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
 
     domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
