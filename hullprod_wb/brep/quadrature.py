@@ -19,18 +19,21 @@ Quadtree. Tensor Gauss-Legendre of the given order on cells of a quadtree over e
 all cells of a level are evaluated in one field call. Error estimate of a cell: |Q(cell) -
 sum of Q over its 4 children| (coarse against fine resolution; it estimates the coarse
 rule's error, so it is conservative for the children's sum, which is what is kept). The
-tolerance of quantity q is tol_q = rtol max(|Q_q|, ZERO_SCALE s_q), s_q = A for areas and
-tau_K A for K integrals. A level whose accepted plus new error estimates fit every tol_q
-ends the refinement; otherwise cells are accepted greedily, smallest errors first, while
-they use at most ACCEPT_FRACTION of the remaining budget tol_q - (accepted errors), and the
-others are split, until max_depth.
+tolerance of quantity q is tol_q = rtol max(|Q_q|, ZERO_SCALE s_q, reference_q), s_q = A
+for areas and tau_K A for K integrals. A level whose accepted plus new error estimates fit
+every tol_q ends the refinement. Otherwise the candidates are the cells that fit, greedily
+(smallest errors first, using at most ACCEPT_FRACTION of the budget left), TREE_SAFETY of
+the budget of the smooth quantities (areas; K integrals of cells without a level curve):
+the quadtree is cheap, and this keeps their actual error far inside rtol. The candidates'
+line integrals (below) are then computed, and the candidates accepted greedily again on
+every quantity against the whole budget left; the others are split, until max_depth.
 
 Mixed cells. The class indicators are discontinuous, and |K|, max(+-K, 0) have kinks on
 K = 0; Gauss sums across such curves converge only like the cell size (squared). A cell is
 mixed when its samples do not all have one class, or when the sampled range of K (or of H
 where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself, contains -tau_K, 0 or
-tau_K (or -+tau_H). For a parent cell with a mixed child the quadtree decides on the areas
-and the K integrals and class areas are line integrals over the parent:
+tau_K (or -+tau_H). For a parent cell with a mixed child the K integrals and class areas
+are line integrals over the parent:
 - on a line sigma = const, the crossings in t of K - tau_K, K + tau_K, H - tau_H, H + tau_H
   and K are bracketed between the samples ZS (and around extrema of one sign that get
   near zero between samples) and refined together (solve_bracketed, one field call per
@@ -41,10 +44,11 @@ and the K integrals and class areas are line integrals over the parent:
 - in sigma the cell is cut where level curves cross its t edges (kinks of the line values)
   and where they are tangent to the lines (found between lines whose crossing counts
   differ; square-root ends, so those pieces get a clustered map), and the pieces are
-  integrated by Gauss-Kronrod 3/7, halving those whose error does not fit the cell's share
-  of 0.5 tol, at most class_max_depth times.
-A parent whose lines do not fit is refined in the quadtree like any other. Islands of a
-level curve inside a cell that no sample sees are not resolved.
+  integrated by Gauss-Kronrod 3/7 (error |K7 - G3|), halving those whose error does not
+  fit, at most class_max_depth times;
+- the quadtree's own children sums of the K integrals bound the line error estimate from
+  below where both disagree (a rough or singular integrand the lines do not resolve).
+Islands of a level curve inside a cell that no sample sees are not resolved.
 """
 import time
 from dataclasses import dataclass
@@ -348,6 +352,8 @@ XI9 = np.concatenate(([EDGE_XI], XK, [1.0 - EDGE_XI]))
 #: interpolants of J and K J (degree 6 on the inner 7 for error estimates).
 INSIDE = 1e-9
 ZS = np.concatenate(([INSIDE], XK, [1.0 - INSIDE]))
+#: Pieces of a line shorter than this fraction of it (between nearby crossings) are
+#: integrated over the interpolants, without samples of their own.
 SHORT_PIECE = 1e-3
 
 
@@ -876,9 +882,10 @@ class _Integrator:
         d = self._line_values(P[inner].ravel(), sig[inner].ravel(), T0[inner].ravel(),
                               T1[inner].ravel())
         ends = (slice(None), [0, -1])
-        e = self._line_counts(P[ends].ravel(), sig[ends].ravel(), T0[ends].ravel(), T1[ends].ravel())
-        count = np.concatenate((e["count"].reshape(n, 2, -1)[:, :1], d["count"].reshape(n, m - 2, -1),
-                                e["count"].reshape(n, 2, -1)[:, 1:]), 1)
+        e = self._line_counts(P[ends].ravel(), sig[ends].ravel(), T0[ends].ravel(),
+                              T1[ends].ravel())
+        ec = e["count"].reshape(n, 2, -1)
+        count = np.concatenate((ec[:, :1], d["count"].reshape(n, m - 2, -1), ec[:, 1:]), 1)
         pair = np.concatenate((e["pair"].reshape(n, 2, N_LEVELS, 2)[:, :1],
                                d["pair"].reshape(n, m - 2, N_LEVELS, 2),
                                e["pair"].reshape(n, 2, N_LEVELS, 2)[:, 1:]), 1)
@@ -943,7 +950,8 @@ class _Integrator:
         def phi(sg, i):
             """min over the window of sign * g_q on the lines sg."""
             x3 = np.stack((w0[i], 0.5 * (ta + tb)[i], w1[i]), 1)
-            f3 = (np.repeat(sign[i], 3) * level(np.repeat(sg, 3), x3.ravel(), np.repeat(i, 3))).reshape(-1, 3)
+            f3 = np.repeat(sign[i], 3) * level(np.repeat(sg, 3), x3.ravel(), np.repeat(i, 3))
+            f3 = f3.reshape(-1, 3)
             return _parabolic_min(lambda t, k: sign[i[k]] * level(sg[k], t, i[k]), x3, f3)[1]
 
         so = sig[p, np.where(more == j, j + 1, j)]
@@ -965,13 +973,13 @@ class _Integrator:
 
         Each cell is cut in sigma at its edge crossings and, as they are found, at
         tangencies of level curves (with a clustered map at those ends, as the square-root
-        behaviour there requires); the pieces are integrated by Gauss-Kronrod and those
-        whose error has a dominant sigma part and does not fit the cell's budget are halved
-        (greedy per cell, as in the quadtree), at most class_max_depth times. A cell stops
-        early once its accepted and current errors fit its budget, or once its accepted
-        errors exceed it, two halves keep more than STALL_RATIO of their parent's error, or
-        it holds MAX_PIECES pieces (a singular or rough integrand). A cell fits when its
-        total error estimate is within its budget; the quadtree refines the others."""
+        behaviour there requires); the pieces are integrated by Gauss-Kronrod, and those
+        whose error has a dominant sigma part and does not fit are halved, at most
+        class_max_depth times. Pieces are accepted greedily against the summed budgets of
+        the cells; a cell stops early once its accepted and current errors fit its budget,
+        or once its accepted errors exceed it, two halves keep more than STALL_RATIO of their
+        parent's error, or it holds MAX_PIECES pieces (a singular or rough integrand). A cell
+        fits when its total error estimate is within its budget."""
         self._pc_cells = cells
         nc = cells["pid"].size
         out, errs = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q))

@@ -261,7 +261,8 @@ class FunctionCurve2D(Curve2D):
         self.breaks = tuple(breaks)
 
     def value(self, s):
-        return np.asarray(self._value(np.asarray(s, dtype=float).ravel()), dtype=float).reshape(-1, 2)
+        s = np.asarray(s, dtype=float).ravel()
+        return np.asarray(self._value(s), dtype=float).reshape(-1, 2)
 
     def derivative(self, s):
         return np.asarray(self._derivative(np.asarray(s, dtype=float).ravel()),
@@ -460,8 +461,8 @@ class TrimmedDomain:
         if k.size == 0:
             return np.empty(0)
         xtol = 4e-16 * (abs(c.s0) + abs(c.s1)) + 1e-15 * (c.s1 - c.s0)
-        return solve_bracketed(lambda x, i: c.derivative(x)[:, comp], s[k], s[k + 1], d[k], d[k + 1],
-                               xtol)
+        return solve_bracketed(lambda x, i: c.derivative(x)[:, comp], s[k], s[k + 1], d[k],
+                               d[k + 1], xtol)
 
     def _build_pieces(self):
         pc, pa, pb = [], [], []
@@ -610,7 +611,3 @@ class TrimmedDomain:
                                     g[j, m], g[j + 1, m], xtol)
                 out.append(c.value(r)[:, 0])
         return np.unique(np.concatenate(out)) if out else np.empty(0)
-
-    def boundary_points(self, n_per_curve=200):
-        """Points (n, 2) along all trim curves, for plots and checks."""
-        return np.concatenate([c.value(np.linspace(c.s0, c.s1, n_per_curve)) for c in self.curves])
