@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
+from .nurbs import basis_derivatives, find_spans
 
 #: Samples per polynomial span of a p-curve (bracketing of u-extrema and crossings).
 SAMPLES_PER_SPAN = 16
@@ -100,48 +101,6 @@ def solve_bracketed(fun, x0, x1, f0, f1, xtol, maxiter=100):
 # 2D curves in parameter space
 
 
-def _bspline_basis_d1(knots, p, s):
-    """Non-zero B-spline basis of degree p and its first derivative at s (n,).
-
-    Returns span (n,) int, N (n, p+1), dN (n, p+1); N[:, r] is N_{span-p+r, p}(s).
-    Cox-de Boor triangle; dN from the degree p-1 basis:
-    N'_{i,p} = p N_{i,p-1} / (t_{i+p} - t_i) - p N_{i+1,p-1} / (t_{i+p+1} - t_{i+1}).
-    """
-    n_poles = len(knots) - p - 1
-    nonempty = np.nonzero(knots[p:n_poles] < knots[p + 1:n_poles + 1])[0] + p
-    span = np.clip(np.searchsorted(knots, s, side="right") - 1, nonempty[0], nonempty[-1])
-    m = s.size
-    N = np.zeros((m, p + 1))
-    N[:, 0] = 1.0
-    left = np.zeros((m, p + 1))
-    right = np.zeros((m, p + 1))
-    lower = N[:, :1].copy()
-    for j in range(1, p + 1):
-        left[:, j] = s - knots[span + 1 - j]
-        right[:, j] = knots[span + j] - s
-        saved = np.zeros(m)
-        for r in range(j):
-            temp = N[:, r] / (right[:, r + 1] + left[:, j - r])
-            N[:, r] = saved + right[:, r + 1] * temp
-            saved = left[:, j - r] * temp
-        N[:, j] = saved
-        if j == p - 1:
-            lower = N[:, :p].copy()
-    if p == 0:
-        return span, N, np.zeros_like(N)
-    # lower[:, r] = N_{span-p+1+r, p-1}, r = 0..p-1
-    dN = np.zeros((m, p + 1))
-    for r in range(p + 1):
-        i = span - p + r
-        if r >= 1:
-            d = knots[i + p] - knots[i]
-            dN[:, r] += np.where(d > 0, p * lower[:, r - 1] / np.where(d > 0, d, 1.0), 0.0)
-        if r <= p - 1:
-            d = knots[i + p + 1] - knots[i + 1]
-            dN[:, r] -= np.where(d > 0, p * lower[:, r] / np.where(d > 0, d, 1.0), 0.0)
-    return span, N, dN
-
-
 class Curve2D:
     """A 2D curve C(s) = (U(s), V(s)), s in [s0, s1], evaluated on arrays.
 
@@ -199,7 +158,9 @@ class NurbsCurve2D(Curve2D):
     def _eval(self, s):
         s = np.asarray(s, dtype=float).ravel()
         p = self.degree
-        span, N, dN = _bspline_basis_d1(self.knots, p, s)
+        span = find_spans(self.knots, p, s)
+        B = basis_derivatives(self.knots, p, span, s, order=1)
+        N, dN = B[0].T, B[1].T
         idx = span[:, None] - p + np.arange(p + 1)[None, :]
         w = self.weights[idx]
         P = self.poles[idx]
