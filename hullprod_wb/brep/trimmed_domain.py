@@ -9,9 +9,9 @@ Each p-curve is split into pieces on which u = U(s) is strictly monotone (at its
 u-extrema and at corners). A vertical line u = const meets a piece at most once, found by
 bracketing on a cached sampling of the piece and refining with vectorised Chandrupatla
 iteration (inverse quadratic interpolation with bisection safeguard) on the exact curve,
-to a few ulps of the curve parameter. Piece
-end values of u closer than the loops' closure gap are snapped together, and a piece
-covers the half-open range [u_lo, u_hi), so that a line through a vertex is counted once.
+to a few ulps of the curve parameter. Piece end values of u closer than the loops'
+closure gap are snapped together, and a piece covers the half-open range [u_lo, u_hi),
+so that a line through a vertex is counted once.
 
 Between consecutive breakpoints (vertices, u-extrema, corner knots) the same pieces cross
 every vertical line in the same v order, so Omega restricted to a slab u0 < u < u1 is a
