@@ -332,6 +332,24 @@ def test_sphere_and_cylinder_faces_with_seams(fc):
 
 
 @needs_freecad
+def test_pcurve_conversion_and_occ_fallback(fc):
+    from FreeCAD import Base
+    from hullprod_wb.brep.trimmed_domain import OccCurve2D, curve_from_geom2d
+    G = fc.Part.Geom2d
+    ellipse = G.Ellipse2d(Base.Vector2d(2, 0), Base.Vector2d(0, 1), Base.Vector2d(0.5, 0.2))
+    for geom in (ellipse, G.Circle2d(Base.Vector2d(0.5, 0.2), 1.0)):
+        exact = curve_from_geom2d(geom, 0.0, 2 * math.pi)
+        assert not isinstance(exact, OccCurve2D)
+        s = np.linspace(0.0, 2 * math.pi, 9)
+        ref = np.array([(p.x, p.y) for p in (geom.value(float(x)) for x in s)])
+        np.testing.assert_allclose(exact.value(s), ref, atol=1e-15)
+    # point-by-point OpenCascade evaluation: the same domain, slower
+    d = TrimmedDomain([OccCurve2D(G.Circle2d(Base.Vector2d(0.5, 0.2), 1.0), 0.0, 2 * math.pi)])
+    idx, lo, hi = d.v_intervals(np.array([0.5, 1.1]))
+    np.testing.assert_allclose(hi - lo, [2.0, 1.6], rtol=1e-14)
+
+
+@needs_freecad
 def test_bspline_face_trimmed_by_a_curve(fc):
     Part, V = fc.Part, fc.V
     # flat degree-1 B-spline (u, v) -> (2u, 3v, 0): J = 6, so area = 6 x parameter area;

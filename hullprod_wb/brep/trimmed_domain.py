@@ -244,21 +244,16 @@ class OccCurve2D(Curve2D):
         self.s0, self.s1 = float(s0), float(s1)
         self.n_samples = n_samples
 
+    @staticmethod
+    def _points(method, s):
+        return np.array([_vec2(method(float(x))) for x in np.asarray(s, dtype=float).ravel()],
+                        dtype=float).reshape(-1, 2)
+
     def value(self, s):
-        s = np.asarray(s, dtype=float).ravel()
-        out = np.empty((s.size, 2))
-        for i, x in enumerate(s):
-            p = self.geom.value(float(x))
-            out[i] = (p.x, p.y)
-        return out
+        return self._points(self.geom.value, s)
 
     def derivative(self, s):
-        s = np.asarray(s, dtype=float).ravel()
-        out = np.empty((s.size, 2))
-        for i, x in enumerate(s):
-            t = self.geom.tangent(float(x))
-            out[i] = (t.x, t.y)
-        return out
+        return self._points(self.geom.tangent, s)
 
     def sample_params(self):
         return np.linspace(self.s0, self.s1, self.n_samples + 1)
