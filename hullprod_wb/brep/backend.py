@@ -113,7 +113,6 @@ class CombinedQuadrature:
         self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
                                 for p in parts))
         self.rechecked = any(p.recheck is not None for p in parts)
-        self.recheck = None
 
     @property
     def all_converged(self):
@@ -215,19 +214,19 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
 
 def _global_converged(faces, quantity, rtol):
     """Converged on every face, or the summed error estimate within rtol of the total."""
-    if all(_final(f.quad).converged[quantity] for f in faces):
+    if all(f.quad.converged[quantity] for f in faces):
         return True
-    total = sum(_final(f.quad).values[quantity] for f in faces)
-    err = sum(_final(f.quad).errors[quantity] for f in faces)
-    scale = max(abs(total), 1e-2 * sum(_final(f.quad).values["A"] for f in faces)
+    total = sum(f.quad.values[quantity] for f in faces)
+    err = sum(f.quad.errors[quantity] for f in faces)
+    scale = max(abs(total), 1e-2 * sum(f.quad.values["A"] for f in faces)
                 if quantity.startswith("A") else abs(total))
     return err <= rtol * scale
 
 
 def _quantity_total(faces, q):
     if q == "A_classified":
-        return sum(_final(f.quad).values[c] for f in faces for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
-    return sum(_final(f.quad).values[q] for f in faces)
+        return sum(f.quad.values[c] for f in faces for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
+    return sum(f.quad.values[q] for f in faces)
 
 
 def face_records(faces, integrals, lref, tau_H, tau_K):
