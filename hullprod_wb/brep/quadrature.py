@@ -100,6 +100,11 @@ TANGENT_STEPS = 10
 #: cell that holds this many pieces (the quadtree refines such cells instead).
 STALL_RATIO = 0.45
 MAX_PIECES = 64
+#: A mixed cell's lines are taken on its local interpolant (see _Integrator._surrogates)
+#: when the interpolant's error estimate is within this share of the cell's budget; points
+#: per block of interpolant evaluations.
+SURROGATE_SHARE = 0.1
+SURROGATE_CHUNK = 20000
 #: Number of candidate cells of largest |K| J kept for the singular-point audit.
 N_PEAKS = 10
 #: At most this many non-regular sample locations are kept.
@@ -275,6 +280,18 @@ class _Patches:
         self.lo_piece = np.where(np.isnan(self.lo_v), self.lo_piece, -1)
         self.hi_piece = np.where(np.isnan(self.hi_v), self.hi_piece, -1)
 
+    @classmethod
+    def of(cls, domain, u_breaks, v_breaks):
+        """The patches of domain cut at the given breaks, built once per domain and breaks
+        (kept on the domain object)."""
+        ub = np.unique(np.asarray(u_breaks, dtype=float).ravel())
+        vb = np.unique(np.asarray(v_breaks, dtype=float).ravel())
+        key = (ub.tobytes(), vb.tobytes())
+        cache = domain.__dict__.setdefault("_patch_cache", {})
+        if key not in cache:
+            cache[key] = cls(domain, ub, vb)
+        return cache[key]
+
     @property
     def size(self):
         return self.u0.size
@@ -296,7 +313,8 @@ class _Patches:
             val = const[pid].copy()
             for k in np.unique(p[p >= 0]):
                 sel = p == k
-                val[sel] = self.domain.piece_v(k, u[sel])
+                uu, back = np.unique(u[sel], return_inverse=True)  # lines shared by cells
+                val[sel] = self.domain.piece_v(k, uu)[back]
             out.append(val.reshape(shape))
         return out[0], out[1]
 
@@ -310,6 +328,24 @@ class _Patches:
         v1 = lo + t1[:, None] * (hi - lo)
         vv = np.concatenate((v0, v1), 1)
         return np.stack((u.min(1), u.max(1), vv.min(1), vv.max(1)), 1)
+
+
+def _embedded_weights(x):
+    """Weights (n,) on the Gauss nodes x (n,) of [0, 1] of the interpolatory rule on all
+    of them but the middle one (n odd; for n even, the one left of the middle), exact to
+    degree n - 2, with a zero weight on the dropped node: the embedded lower-order rule whose
+    difference to the Gauss rule bounds its error. None for n < 3."""
+    n = x.size
+    if n < 3:
+        return None
+    keep = np.ones(n, bool)
+    keep[(n - 1) // 2] = False
+    xs = x[keep]
+    k = np.arange(n - 1)
+    moments = 1.0 / (k + 1)  # int_0^1 x^k
+    w = np.zeros(n)
+    w[keep] = np.linalg.solve(np.vander(xs, n - 1, increasing=True).T, moments)
+    return w
 
 
 def _gauss(order):
@@ -507,6 +543,70 @@ def _cat(parts):
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
+class _SegmentField:
+    """J, K, H, regular along segments of mixed cells, for _Integrator's line code.
+
+    A segment is a line sigma = fixed (axis "t": its parameter x is t) or t = fixed (axis
+    "sigma": x is sigma) of the mixed cell cell (indices into the integrator's _pc_cells).
+    Segments of cells that use their interpolant are evaluated on its restriction to the
+    segment (a Legendre series in x, computed once per segment); the others by the field.
+    For axis "t", u, lo, width (n,) of the lines may be given (else computed)."""
+
+    def __init__(self, it, cell, fixed, axis, u=None, lo=None, width=None):
+        self.it, self.axis = it, axis
+        self.cell, self.fixed = np.asarray(cell), np.asarray(fixed, dtype=float)
+        cells, sur = it._pc_cells, it._sur
+        self.use = sur["use"][self.cell]
+        deg = 2 * it.order - 1
+        c = self.cell
+        if axis == "t":
+            a, b = cells["s0"][c], cells["s1"][c]
+            self.x0, self.x1 = cells["t0"][c], cells["t1"][c]
+        else:
+            a, b = cells["t0"][c], cells["t1"][c]
+            self.x0, self.x1 = cells["s0"][c], cells["s1"][c]
+        i = np.nonzero(self.use)[0]
+        self.coef = np.zeros((c.size, 3, deg + 1))
+        if i.size:
+            P = np.polynomial.legendre.legvander(2.0 * (self.fixed[i] - a[i]) / (b[i] - a[i]) - 1.0, deg)
+            C = sur["C"][c[i]]
+            if axis != "t":
+                C = np.swapaxes(C, 2, 3)
+            self.coef[i] = np.matmul(P[:, None, None, :], C)[:, :, 0, :]
+        if axis == "t" and u is None and (~self.use).any():
+            pid = cells["pid"][c]
+            u, _ = it.patches.u_of_sigma(pid, self.fixed)
+            lo, hi = it.patches.bounds(pid, u)
+            width = hi - lo
+        self.u, self.lo, self.width = u, lo, width
+
+    def __call__(self, x, seg):
+        x, seg = np.asarray(x, dtype=float).ravel(), np.asarray(seg).ravel()
+        n = x.size
+        J, K, H = np.empty(n), np.empty(n), np.empty(n)
+        reg = np.ones(n, bool)
+        use = self.use[seg]
+        i = np.nonzero(use)[0]
+        if i.size:
+            s = seg[i]
+            z = 2.0 * (x[i] - self.x0[s]) / (self.x1[s] - self.x0[s]) - 1.0
+            P = np.polynomial.legendre.legvander(z, self.coef.shape[2] - 1)
+            J[i], K[i], H[i] = np.matmul(self.coef[s], P[:, :, None])[:, :, 0].T
+        i = np.nonzero(~use)[0]
+        if i.size:
+            s = seg[i]
+            it = self.it
+            if self.axis == "t":
+                u, v = self.u[s], self.lo[s] + x[i] * self.width[s]
+            else:
+                pid = it._pc_cells["pid"][self.cell[s]]
+                u, _ = it.patches.u_of_sigma(pid, x[i])
+                lo, hi = it.patches.bounds(pid, u)
+                v = lo + self.fixed[s] * (hi - lo)
+            J[i], K[i], H[i], reg[i] = it.f(u, v)
+        return J, K, H, reg
+
+
 class _Integrator:
     """State of one adaptive integration (quadtree over the patches, lines in mixed cells).
 
@@ -522,7 +622,12 @@ class _Integrator:
         self.progress = progress
         self.reference = np.zeros(NQ)  # see integrate(reference=...)
         self.x, self.w = _gauss(order)
-        self.patches = _Patches(domain, u_breaks, v_breaks)
+        self.w_embedded = _embedded_weights(self.x)
+        grid = np.concatenate((0.5 * self.x, 0.5 + 0.5 * self.x))  # children's nodes in a parent
+        LV = np.polynomial.legendre.legvander
+        self._grid_inverse = np.linalg.inv(LV(2.0 * grid - 1.0, 2 * order - 1))
+        self._parent_vander = LV(2.0 * self.x - 1.0, 2 * order - 1)
+        self.patches = _Patches.of(domain, u_breaks, v_breaks)
         P = self.patches.size
         self.nonregular = []
         self.n_nonregular = 0
@@ -554,7 +659,9 @@ class _Integrator:
         """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1).
 
         Returns dict Q (n, 9), mixed (n,) bool, peak (n, 3) (u, v, |K| J at the sample of
-        largest |K| J), pmeas (n,) parameter area."""
+        largest |K| J), err_e (n, 9) |Q - Q_embedded| (_embedded_weights), pmeas (n,)
+        parameter area, and the samples sJ, sK, sH, sreg (n, o, o)
+        (index [cell, sigma node, t node])."""
         x, w, n = self.x, self.w, self.order
         pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
         nc = pid.size
@@ -570,6 +677,11 @@ class _Integrator:
             * (du * (hi - lo))[:, :, None]
         f, cls = self._integrands(J, K, H, reg)
         Q = np.einsum("cij,cijq->cq", W, f)
+        if self.w_embedded is not None:
+            We = W * (self.w_embedded[:, None] * self.w_embedded[None, :] / (w[:, None] * w[None, :]))[None]
+            err_e = np.abs(Q - np.einsum("cij,cijq->cq", We, f))
+        else:
+            err_e = np.full(Q.shape, np.inf)
         bad = ~reg
         nb = int(bad.sum())
         if nb:
@@ -581,7 +693,8 @@ class _Integrator:
         k = KJ.argmax(1)
         ar = np.arange(nc)
         peak = np.stack((U.reshape(nc, -1)[ar, k], V.reshape(nc, -1)[ar, k], KJ[ar, k]), 1)
-        return dict(Q=Q, mixed=self._mixed(cls, K, H, reg), peak=peak, pmeas=W.sum((1, 2)))
+        return dict(Q=Q, err_e=err_e, mixed=self._mixed(cls, K, H, reg), peak=peak,
+                    pmeas=W.sum((1, 2)), sJ=J, sK=K, sH=H, sreg=reg)
 
     def _mixed(self, cls, K, H, reg):
         """(n,) bool: cells (n, o, o samples) that may meet a class boundary or K = 0."""
@@ -618,8 +731,11 @@ class _Integrator:
     def refine_to(self, depth_limit):
         """Refine level by level until converged or depth_limit is reached."""
         while self.active["pid"].size and self.depth < depth_limit:
+            self._accept_own()
             a = self.active
             na = a["pid"].size
+            if na == 0:
+                break
             sm = 0.5 * (a["s0"] + a["s1"])
             tm = 0.5 * (a["t0"] + a["t1"])
             ch = dict(pid=np.repeat(a["pid"], 4),
@@ -656,7 +772,20 @@ class _Integrator:
                 P_tot = sum((p["pmeas"].sum() for p in self.accepted), unit["pmeas"].sum())
                 sub = {k: v[lined] for k, v in unit.items()}
                 share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
-                val, lerr, _ = self._lines(sub, 0.5 * share[:, LINE_Q] * tol[None, LINE_Q])
+                lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
+                sur = self._surrogates(a, ch, lined, sub, lbudget)
+                if not last and not sur["use"].all():
+                    # a cell whose interpolant is not yet accurate is split rather than
+                    # integrated on lines of the field: its children's interpolants converge
+                    # fast, and four children cost less than the lines of one cell
+                    keep = sur["use"]
+                    accept[np.nonzero(lined)[0][~keep]] = False
+                    lined[lined] = keep
+                    sub = {k: v[keep] for k, v in sub.items()}
+                    sur = {k: v[keep] for k, v in sur.items()}
+                    lbudget = lbudget[keep]
+            if lined.any():
+                val, lerr, _ = self._lines(sub, lbudget, sur)
                 # the quadtree's children sums are an independent check of the K integrals:
                 # a discrepancy beyond the line estimate that the quadtree also sees (its own
                 # estimate) marks a rough or singular integrand the lines did not resolve
@@ -681,6 +810,32 @@ class _Integrator:
                               "quadrature depth %d: %d of %d cells refined"
                               % (self.depth, int((~accept).sum()), na))
 
+    def _accept_own(self):
+        """Accept active cells on their own Gauss sums, without children: cells that meet
+        no class boundary (not mixed), all samples regular, whose embedded error estimates
+        err_e fit greedily in TREE_SAFETY of the remaining budget of every quantity (the
+        class areas' errors: the area's, shared by class fraction, as for children sums)."""
+        a = self.active
+        n = a["pid"].size
+        cand = ~a["mixed"] & a["sreg"].reshape(n, -1).all(1) & np.isfinite(a["err_e"]).all(1)
+        if not cand.any():
+            return
+        err = a["err_e"].copy()
+        frac = a["Q"][:, 5:] / np.maximum(a["Q"][:, :1], 1e-300)
+        err[:, 5:] = err[:, :1] * np.abs(frac)
+        Qtot = sum((p["Q"].sum(0) for p in self.accepted), a["Q"].sum(0))
+        budget = TREE_SAFETY * (self._tolerance(Qtot) - self.err_acc)
+        ok = np.zeros(n, bool)
+        ok[cand] = _greedy_accept(err[cand], budget)
+        if not ok.any():
+            return
+        unit = {k: a[k][ok] for k in ("pid", "s0", "s1", "t0", "t1", "Q", "mixed", "pmeas", "peak")}
+        unit["depth"] = np.full(int(ok.sum()), self.depth)
+        unit["err"] = err[ok]
+        self.err_acc = self.err_acc + unit["err"].sum(0)
+        self.accepted.append(unit)
+        self.active = {k: v[~ok] for k, v in a.items()}
+
     @staticmethod
     def _share(Q, pmeas, Qtot, P_tot):
         """Part (n, 9) of each quantity's tolerance that cells with integrals Q (n, 9) and
@@ -692,12 +847,99 @@ class _Integrator:
                        + pmeas / max(P_tot, 1e-300))
         return 0.5 * (np.minimum(own, 1.0) + place[:, None])
 
+    # -- local interpolants of mixed cells ----------------------------------------------------
+
+    def _surrogates(self, parent, children, sel, units, budget):
+        """Tensor interpolants of J, K, H over the mixed parent cells parent[sel], from
+        their children's samples, and whether each is accurate enough to stand for the field
+        on its lines.
+
+        The four children's o x o Gauss nodes form a 2o x 2o tensor grid of the parent; the
+        interpolant is the tensor Legendre series of degree 2o - 1 through it (coefficients
+        C (m, 3, 2o, 2o) in the parent's local coordinates, C = V^-1 F V^-T). Its error is
+        measured at the parent's own o x o Gauss nodes, which are not among the grid nodes:
+        d_f = max |interpolant - f| there. Error of the line integrals taken on the
+        interpolant: 2 P max |d(K J)| for the K integrals (P: the cell's parameter measure)
+        and, for each class area, A sum_levels 2 d_g / range_g over the levels g the cell's
+        values reach within d_g (a level curve moves by about d_g / |grad g|, and |grad g|
+        is about range_g over the cell). A cell uses its interpolant when every sample is
+        regular and finite and these errors are within SURROGATE_SHARE of its budget
+        (m, 7); the errors are then part of its line error estimate.
+
+        Returns dict C (m, 3, 2o, 2o), use (m,) bool, err (m, 7)."""
+        o = self.order
+        idx = np.nonzero(sel)[0]
+        m = idx.size
+        VI = self._grid_inverse
+        F = np.empty((m, 3, 2 * o, 2 * o))
+        for f, key in enumerate(("sJ", "sK", "sH")):
+            c = children[key].reshape(-1, 4, o, o)[idx]
+            F[:, f, :o, :o], F[:, f, o:, :o] = c[:, 0], c[:, 1]
+            F[:, f, :o, o:], F[:, f, o:, o:] = c[:, 2], c[:, 3]
+        reg = children["sreg"].reshape(-1, 4 * o * o)[idx].all(1) & parent["sreg"][idx].reshape(m, -1).all(1)
+        reg &= np.isfinite(F).reshape(m, -1).all(1)
+        C = VI @ np.where(np.isfinite(F), F, 0.0) @ VI.T
+        Vp = self._parent_vander
+        S = Vp @ C @ Vp.T
+        P = np.stack([parent[k][idx] for k in ("sJ", "sK", "sH")], 1)
+        with np.errstate(invalid="ignore"):
+            d = np.abs(S - P).reshape(m, 3, -1).max(2)
+            dKJ = np.abs(S[:, 1] * S[:, 0] - P[:, 1] * P[:, 0]).reshape(m, -1).max(1)
+        reg &= np.isfinite(d).all(1) & np.isfinite(dKJ)
+        vals = np.concatenate((F.reshape(m, 3, -1), P.reshape(m, 3, -1)), 2)
+        lo, hi = vals.min(2), vals.max(2)
+        tk, th = self.tau_K, self.tau_H
+        frac = np.zeros(m)
+        for f, levels in ((1, (-tk, 0.0, tk)), (2, (-th, th))):
+            rng = np.maximum(hi[:, f] - lo[:, f], 1e-300)
+            for lev in levels:
+                near = (lo[:, f] - d[:, f] <= lev) & (hi[:, f] + d[:, f] >= lev)
+                frac += np.where(near, 2.0 * d[:, f] / rng, 0.0)
+        err = np.empty((m, N_LINE_Q))
+        err[:, :3] = (2.0 * units["pmeas"] * dKJ)[:, None]
+        err[:, 3:] = (np.abs(units["Q"][:, 0]) * frac)[:, None]
+        err = np.where(reg[:, None], err, np.inf)
+        use = np.all(err <= SURROGATE_SHARE * budget, 1)
+        return dict(C=C, use=use, err=np.where(use[:, None], err, 0.0))
+
+    def _cell_field(self, cell, sig, t):
+        """J, K, H, regular (m,) at patch coordinates (sig, t) (m,) of the mixed cells cell
+        (m,) (indices into _pc_cells): the interpolant where the cell uses one, else the field."""
+        cells, sur = self._pc_cells, self._sur
+        cell = np.asarray(cell).ravel()
+        sig, t = np.broadcast_to(sig, cell.shape).ravel(), np.broadcast_to(t, cell.shape).ravel()
+        J, K, H = np.empty(cell.size), np.empty(cell.size), np.empty(cell.size)
+        reg = np.ones(cell.size, bool)
+        use = sur["use"][cell]
+        i = np.nonzero(use)[0]
+        if i.size:
+            c = cell[i]
+            xi = (sig[i] - cells["s0"][c]) / (cells["s1"][c] - cells["s0"][c])
+            eta = (t[i] - cells["t0"][c]) / (cells["t1"][c] - cells["t0"][c])
+            deg = 2 * self.order - 1
+            PX = np.polynomial.legendre.legvander(2.0 * xi - 1.0, deg)
+            PE = np.polynomial.legendre.legvander(2.0 * eta - 1.0, deg)
+            out = np.empty((i.size, 3))
+            for a in range(0, i.size, SURROGATE_CHUNK):
+                b = slice(a, a + SURROGATE_CHUNK)
+                row = np.matmul(PX[b, None, None, :], sur["C"][c[b]])[:, :, 0, :]
+                out[b] = (row * PE[b, None, :]).sum(2)
+            J[i], K[i], H[i] = out.T
+        i = np.nonzero(~use)[0]
+        if i.size:
+            pid = cells["pid"][cell[i]]
+            u, _ = self.patches.u_of_sigma(pid, sig[i])
+            lo, hi = self.patches.bounds(pid, u)
+            J[i], K[i], H[i], reg[i] = self.f(u, lo + t[i] * (hi - lo))
+        return J, K, H, reg
+
     # -- lines in mixed cells -----------------------------------------------------------------
 
-    def _crossings(self, point, x0, x1, refine=True):
+    def _crossings(self, evalf, x0, x1, refine=True):
         """Zeros of the five level functions along segments x in [x0, x1] (n,).
 
-        point(x, i) -> (u, v) maps parameters x (m,) of segments i (m,) to the plane.
+        evalf(x, i) -> (J, K, H, regular) (m,) each, at parameters x (m,) of segments i (m,)
+        (a _SegmentField).
         Brackets: sign changes between the samples at ZS, and, where three samples of one
         sign dip towards zero and their parabola's vertex gets within DIP_FRACTION of zero,
         the two sides of the extremum (_parabolic_min) when it has the other sign. Levels of
@@ -709,7 +951,7 @@ class _Integrator:
         n = x0.size
         m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
-        J, K, H, reg = self.f(*point(xs.ravel(), np.repeat(np.arange(n), m)))
+        J, K, H, reg = evalf(xs.ravel(), np.repeat(np.arange(n), m))
         G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, m, N_LEVELS)
         S = dict(J=np.where(reg, J, 0.0).reshape(n, m), KJ=np.where(reg, K * J, 0.0).reshape(n, m),
                  K=K.reshape(n, m), H=H.reshape(n, m), reg=reg.reshape(n, m))
@@ -724,7 +966,7 @@ class _Integrator:
         a, b, fa, fb = xs[li, j], xs[li, j + 1], G[li, j, q], G[li, j + 1, q]
 
         def g(x, idx, seg, lev):
-            _, Kx, Hx, rx = self.f(*point(x, seg[idx]))
+            _, Kx, Hx, rx = evalf(x, seg[idx])
             return np.where(rx, self._thresholds(Kx, Hx)[np.arange(idx.size), lev[idx]], np.nan)
 
         # two crossings between neighbouring samples: a dip of one sign towards zero
@@ -773,8 +1015,9 @@ class _Integrator:
                                 CROSSING_RTOL * (x1 - x0)[li], maxiter=CROSSING_STEPS)
         return li, q, roots, S
 
-    def _line_values(self, pid, sig, t0, t1):
-        """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)).
+    def _line_values(self, cell, pid, sig, t0, t1):
+        """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)), in the mixed
+        cells cell (L,) (indices into _pc_cells).
 
         Returns dict F (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt, E (L, 7)
         their error estimates, count (L, 5) crossings of each level, pair (L, 5, 2) the
@@ -789,7 +1032,8 @@ class _Integrator:
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
         width = hi - lo
-        li, lq, roots, S = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1)
+        evalf = _SegmentField(self, cell, sig, "t", u=u, lo=lo, width=width)
+        li, lq, roots, S = self._crossings(evalf, t0, t1)
         ar = np.arange(L)
         lid, a, b = _segments(np.concatenate((t0, roots, t1)), np.concatenate((ar, li, ar)))
         span = (t1 - t0)[lid]
@@ -801,7 +1045,7 @@ class _Integrator:
         sh = ~long_ & ~whole
         tq = np.concatenate((tl.ravel(), 0.5 * (a + b)[sh]))
         lq_ = np.concatenate((np.repeat(lid[long_], XK.size), lid[sh]))
-        J, K, H, reg = self.f(u[lq_], lo[lq_] + tq * width[lq_])
+        J, K, H, reg = evalf(tq, lq_)
         # node values of long and whole pieces (7 each), then the short pieces' midpoints
         inner = (lid[whole], slice(1, -1))
         J = np.concatenate((np.where(reg, J, 0.0)[:nl * XK.size], S["J"][inner].ravel(),
@@ -852,14 +1096,14 @@ class _Integrator:
         out.update(_count_and_pairs(li, lq, roots, L))
         return out
 
-    def _line_counts(self, pid, sig, t0, t1):
+    def _line_counts(self, cell, pid, sig, t0, t1):
         """Crossing counts (L, 5) and closest pairs (L, 5, 2) of lines, from their samples
         only (see _crossings with refine=False)."""
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
         width = hi - lo
-        li, lq, roots, _ = self._crossings(lambda x, i: (u[i], lo[i] + x * width[i]), t0, t1,
-                                           refine=False)
+        evalf = _SegmentField(self, cell, sig, "t", u=u, lo=lo, width=width)
+        li, lq, roots, _ = self._crossings(evalf, t0, t1, refine=False)
         return _count_and_pairs(li, lq, roots, pid.size)
 
     def _piece_values(self, pc):
@@ -879,10 +1123,11 @@ class _Integrator:
         T1 = np.repeat(cells["t1"][pc["cell"]][:, None], m, 1)
         _, du = self.patches.u_of_sigma(P, sig)
         inner = (slice(None), slice(1, -1))
-        d = self._line_values(P[inner].ravel(), sig[inner].ravel(), T0[inner].ravel(),
+        C = np.repeat(pc["cell"][:, None], m, 1)
+        d = self._line_values(C[inner].ravel(), P[inner].ravel(), sig[inner].ravel(), T0[inner].ravel(),
                               T1[inner].ravel())
         ends = (slice(None), [0, -1])
-        e = self._line_counts(P[ends].ravel(), sig[ends].ravel(), T0[ends].ravel(),
+        e = self._line_counts(C[ends].ravel(), P[ends].ravel(), sig[ends].ravel(), T0[ends].ravel(),
                               T1[ends].ravel())
         ec = e["count"].reshape(n, 2, -1)
         count = np.concatenate((ec[:, :1], d["count"].reshape(n, m - 2, -1), ec[:, 1:]), 1)
@@ -905,12 +1150,8 @@ class _Integrator:
         h = INSIDE * (cells["t1"] - cells["t0"])
         tE = np.concatenate((cells["t0"] + h, cells["t1"] - h))
 
-        def point(x, i):
-            u, _ = self.patches.u_of_sigma(pid[E[i]], x)
-            lo, hi = self.patches.bounds(pid[E[i]], u)
-            return u, lo + tE[i] * (hi - lo)
-
-        li, _, roots, _ = self._crossings(point, cells["s0"][E], cells["s1"][E])
+        evalf = _SegmentField(self, E, tE, "sigma")
+        li, _, roots, _ = self._crossings(evalf, cells["s0"][E], cells["s1"][E])
         return E[li], roots
 
     def _tangent_cuts(self, pc, sig, count, pair):
@@ -933,15 +1174,13 @@ class _Integrator:
             return p, np.empty(0)
         cells = self._pc_cells
         cell = pc["cell"][p]
-        pid, t0, t1 = cells["pid"][cell], cells["t0"][cell], cells["t1"][cell]
+        t0, t1 = cells["t0"][cell], cells["t1"][cell]
         gap = tb - ta
         w0 = np.maximum(ta - gap, t0)
         w1 = np.minimum(tb + gap, t1)
 
         def level(sg, t, i):
-            u, _ = self.patches.u_of_sigma(pid[i], sg)
-            lo, hi = self.patches.bounds(pid[i], u)
-            _, K, H, reg = self.f(u, lo + t * (hi - lo))
+            _, K, H, reg = self._cell_field(cell[i], sg, t)
             return np.where(reg, self._thresholds(K, H)[np.arange(i.size), q[i]], np.nan)
 
         sm = sig[p, more]
@@ -967,7 +1206,7 @@ class _Integrator:
         inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
         return p[i][inside], root[inside]
 
-    def _lines(self, cells, budget):
+    def _lines(self, cells, budget, surrogates):
         """LINE_Q integrals (n, 7), error estimates (n, 7) and fit flags (n,) of mixed cells
         with error budgets (n, 7).
 
@@ -980,7 +1219,7 @@ class _Integrator:
         or once its accepted errors exceed it, two halves keep more than STALL_RATIO of their
         parent's error, or it holds MAX_PIECES pieces (a singular or rough integrand). A cell
         fits when its total error estimate is within its budget."""
-        self._pc_cells = cells
+        self._pc_cells, self._sur = cells, surrogates
         nc = cells["pid"].size
         out, errs = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q))
         ec, es = self._edge_cuts(cells)
@@ -990,7 +1229,7 @@ class _Integrator:
         n = cell.size
         pc = dict(cell=cell, sa=sa, sb=sb, kind=np.zeros(n, int), perr=np.full(n, np.inf),
                   sib=np.full(n, -1))
-        left = budget.copy()
+        left = budget - surrogates["err"]
         for level in range(self.class_max_depth + 1):
             F, e_s, e_t, sig, count, pair = self._piece_values(pc)
             last = level == self.class_max_depth
@@ -1020,6 +1259,7 @@ class _Integrator:
             pc = _concat_pieces(_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm))
             if pc["sa"].size == 0:
                 break
+        errs += surrogates["err"]
         return out, errs, np.all(errs <= budget, 1)
 
     # -- result -------------------------------------------------------------------------------
@@ -1048,6 +1288,22 @@ class _Integrator:
             n_initial_cells=self.patches.size, n_mixed_cells=int(units["mixed"].sum()),
             nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
             peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start)
+
+
+def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
+    """Integrals of QUANTITIES by the fixed tensor Gauss-Legendre rule of the given order
+    (>= 3) on every boundary-fitted patch of the domain, without refinement (an independent
+    check of the adaptive cubature; class quantities with unit thresholds), and the summed
+    embedded-rule differences (_embedded_weights) as a bound on their error: two dicts
+    quantity -> float."""
+    if not isinstance(domain, TrimmedDomain):
+        raise InputError("patch_rule() needs a TrimmedDomain, got %s" % type(domain).__name__)
+    if int(order) < 3:
+        raise InputError("patch_rule() needs order >= 3, got %r" % (order,))
+    it = _Integrator(domain, field, 1.0, 1.0, int(order), 1.0, 0, u_breaks, v_breaks, None)
+    values = {q: float(x) for q, x in zip(QUANTITIES, it.active["Q"].sum(0))}
+    bounds = {q: float(x) for q, x in zip(QUANTITIES, it.active["err_e"].sum(0))}
+    return values, bounds
 
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
