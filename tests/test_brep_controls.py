@@ -162,3 +162,29 @@ def test_iges_and_step_round_trip(tmp_path, ext):
     r = assess(path, lref=1000.0)
     assert r.input["format"] == ("iges" if ext == ".igs" else "step")
     assert r.signature["I_D"] == pytest.approx(WIGLEY_REFERENCE["I_D"], rel=2e-9)
+
+
+def test_i_d_stability_rule_on_the_refinement_sequence():
+    """Section 5.2: I_D is retained only when its last and prior relative changes over the
+    refinement levels are within 2 % and 3 %; otherwise it is UNCONVERGED (value null)."""
+    from hullprod_wb.brep.backend import _stable
+    assert _stable([{"I_D": 1.0}, {"I_D": 1.029}, {"I_D": 1.04}])  # 2.9 % then 1.1 %
+    assert not _stable([{"I_D": 1.0}, {"I_D": 1.05}, {"I_D": 1.051}])  # prior change 5 %
+    assert not _stable([{"I_D": 1.0}, {"I_D": 1.0}, {"I_D": 1.03}])  # last change 2.9 %
+    r = assess(half_wigley_shape(), lref=1.0)
+    seq = r.validity["I_D"].evidence["refinement_sequence"]
+    assert [h["depth"] for h in seq] == list(range(len(seq)))
+    assert r.validity["I_D"].status.value == "VALID"
+
+
+def test_unstable_refinement_sequence_makes_i_d_unconverged(monkeypatch):
+    import hullprod_wb.brep.backend as backend
+    fake = [{"depth": 0, "I_D": 1.0, "I_D_plus": 0.5, "I_D_minus": 0.5},
+            {"depth": 1, "I_D": 2.0, "I_D_plus": 1.0, "I_D_minus": 1.0},
+            {"depth": 2, "I_D": 4.0, "I_D_plus": 2.0, "I_D_minus": 2.0}]
+    monkeypatch.setattr(backend, "refinement_history", lambda faces, lref: fake)
+    r = assess(half_wigley_shape(), lref=1.0)
+    v = r.validity["I_D"]
+    assert v.status.value == "UNCONVERGED" and v.value is None
+    assert v.evidence["refinement_sequence"] == fake
+    assert r.validity["I_D_plus"].status.value == "VALID"  # the rule is I_D's

@@ -28,6 +28,12 @@ def test_dtmb5415_hull_faces_converged_improper_integral():
     np.testing.assert_allclose(got, DTMB_PAPER_CLASSES, atol=2e-4)
     audit = r.validity["I_D"].evidence["audit"][0]
     assert audit["verdict"] == "convergent" and audit["decay_power"] > 0.5
+    # stability rule (section 5.2) on the recorded refinement sequence: the last two
+    # relative changes of I_D within 2 % and 3 %, and the sequence ends at the reported value
+    seq = [h["I_D"] for h in r.validity["I_D"].evidence["refinement_sequence"]]
+    assert len(seq) >= 3
+    assert abs(seq[-1] - seq[-2]) <= 0.02 * abs(seq[-1]) and abs(seq[-2] - seq[-3]) <= 0.03 * abs(seq[-2])
+    assert seq[-1] == pytest.approx(r.signature["I_D"], rel=1e-4)
     assert r.input["faces_used"] == [1, 2]
     assert [row["face"] for row in r.provenance["faces"]] == [1, 2]
     # Face1 (bow, sonar dome) carries most of the |K| integral on under a fifth of the area

@@ -460,3 +460,18 @@ def knot_span_area(face, field, n=16, sub=1):
     U, Vv = np.meshgrid(u, v, indexing="ij")
     J = field(U.ravel(), Vv.ravel())["J"].reshape(U.shape)
     return float(wu @ J @ wv)
+
+
+def test_refinement_history_ends_at_the_result():
+    # K = v - g(u) as above: the level estimates of I_D-type integrals approach the result
+    d = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0)
+    f = field_of(lambda u, v: 1 + u * v / 2, lambda u, v: v - 0.3 - 0.1 * np.sin(2 * np.pi * u))
+    r = integrate(d, f, TAU_H, TAU_K)
+    h = r.history
+    assert len(h) == r.depth_reached + 1 >= 2
+    # converged: every cell is accepted, so the last level estimate is the result itself
+    assert r.all_converged
+    for q in QUANTITIES:
+        assert h[-1][q] == pytest.approx(r.values[q], rel=1e-12, abs=1e-15)
+    errs = [abs(x["int_abs_K"] - r.values["int_abs_K"]) for x in h]
+    assert errs[-1] < errs[0]

@@ -110,6 +110,11 @@ class CombinedQuadrature:
         self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
                                 for p in parts))
         self.rechecked = any(p.recheck is not None for p in parts)
+        # refinement sequence: the parts' level estimates summed level by level (a part
+        # that stopped earlier keeps its last estimate)
+        hist = [(f.history or [f.values]) for f in finals]
+        self.history = [{k: float(sum(h[min(d, len(h) - 1)][k] for h in hist)) for k in QUANTITIES}
+                        for d in range(max(len(h) for h in hist))]
 
     @property
     def all_converged(self):

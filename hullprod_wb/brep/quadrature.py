@@ -125,7 +125,10 @@ class QuadratureResult:
     unresolved at the final depth. peak_KJ (N_PEAKS, 3): (u, v, |K| J) of the samples of
     largest |K| J, one per cell, largest first (candidate singular points). recheck: the
     integration continued one level deeper (paper section 5.2) when something did not
-    converge and recheck was requested, else None.
+    converge and recheck was requested, else None. history: the global estimate of every
+    quantity after each quadtree level (level 0: the patches' own Gauss sums; level d:
+    accepted cells plus the Gauss sums of the cells still refined), a list of dicts
+    quantity -> float: the refinement sequence of the stability rule (section 5.2).
     """
 
     values: dict
@@ -147,6 +150,7 @@ class QuadratureResult:
     peak_KJ: np.ndarray
     seconds: float = 0.0
     recheck: Optional["QuadratureResult"] = None
+    history: Optional[list] = None
 
     @property
     def all_converged(self):
@@ -172,6 +176,7 @@ class QuadratureResult:
         out["nonregular_uv"] = self.nonregular_uv.tolist()
         out["unconverged_cells"] = self.unconverged_cells.tolist()
         out["peak_KJ"] = self.peak_KJ.tolist()
+        out["history"] = self.history
         out["recheck"] = None if self.recheck is None else self.recheck.to_dict()
         return out
 
@@ -639,6 +644,13 @@ class _Integrator:
         z, o = np.zeros(P), np.ones(P)
         self.active = dict(pid=pid, s0=z, s1=o, t0=z, t1=o)
         self.active.update(self._eval_cells(self.active))
+        self.history = []
+        self._record_level()
+
+    def _record_level(self):
+        """Append the global estimate (accepted cells plus active cells' Gauss sums)."""
+        Q = sum((p["Q"].sum(0) for p in self.accepted), self.active["Q"].sum(0))
+        self.history.append({q: float(x) for q, x in zip(QUANTITIES, Q)})
 
     # -- evaluation ---------------------------------------------------------------------------
 
@@ -805,6 +817,7 @@ class _Integrator:
             self.pending = {k: v[~accept] for k, v in unit.items()} if last else None
             r4 = np.repeat(~accept, 4)
             self.active = {k: v[r4] for k, v in ch.items()}
+            self._record_level()
             if self.progress is not None:
                 self.progress(min(1.0, self.depth / float(depth_limit + 1)),
                               "quadrature depth %d: %d of %d cells refined"
@@ -1287,7 +1300,8 @@ class _Integrator:
             n_field_calls=self.f.n_calls, n_cells=4 * int(units["pid"].size),
             n_initial_cells=self.patches.size, n_mixed_cells=int(units["mixed"].sum()),
             nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
-            peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start)
+            peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start,
+            history=list(self.history))
 
 
 def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
