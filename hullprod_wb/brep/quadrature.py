@@ -448,6 +448,14 @@ def _greedy_accept(err, budget, group=None):
     return out
 
 
+def _row_sums(rows, values, n):
+    """Sums (n, q) of the rows (k, q) of values that belong to each index of rows (k,)."""
+    out = np.empty((n, values.shape[1]))
+    for j in range(values.shape[1]):
+        out[:, j] = np.bincount(rows, weights=values[:, j], minlength=n)
+    return out
+
+
 def _segments(cuts, owner):
     """Consecutive pairs of sorted cut values per owner: (owner, a, b) of non-empty pieces.
 
@@ -596,7 +604,7 @@ class _SegmentField:
             s = seg[i]
             z = 2.0 * (x[i] - self.x0[s]) / (self.x1[s] - self.x0[s]) - 1.0
             P = np.polynomial.legendre.legvander(z, self.coef.shape[2] - 1)
-            J[i], K[i], H[i] = np.matmul(self.coef[s], P[:, :, None])[:, :, 0].T
+            J[i], K[i], H[i] = np.einsum("mk,mfk->fm", P, self.coef[s])
         i = np.nonzero(~use)[0]
         if i.size:
             s = seg[i]
@@ -624,6 +632,7 @@ class _Integrator:
         self.tau_H, self.tau_K = tau_H, tau_K
         self.order, self.rtol = order, rtol
         self.class_max_depth = class_max_depth
+        self.lines = True
         self.progress = progress
         self.reference = np.zeros(NQ)  # see integrate(reference=...)
         self.x, self.w = _gauss(order)
@@ -770,7 +779,8 @@ class _Integrator:
             err[:, 5:] = err[:, :1] * np.abs(frac)  # area error shared among the classes
             mixed = unit["mixed"]
             err_tree = err.copy()
-            err_tree[mixed, 2:N_SMOOTH] = 0.0  # K integrals of mixed cells: from the lines
+            if self.lines:
+                err_tree[mixed, 2:N_SMOOTH] = 0.0  # K integrals of mixed cells: from the lines
             Qtot = sum((p["Q"].sum(0) for p in self.accepted), unit["Q"].sum(0))
             tol = self._tolerance(Qtot)
             budget = tol - self.err_acc
@@ -779,7 +789,7 @@ class _Integrator:
                 accept = np.ones(na, bool)
             else:
                 accept = _greedy_accept(err_tree[:, :N_SMOOTH], tree_budget)
-            lined = mixed & (accept | last)
+            lined = mixed & (accept | last) & self.lines
             if lined.any():
                 P_tot = sum((p["pmeas"].sum() for p in self.accepted), unit["pmeas"].sum())
                 sub = {k: v[lined] for k, v in unit.items()}
@@ -1103,8 +1113,8 @@ class _Integrator:
         P[rows, 3 + cls[ok]] = vals[0][ok]
         Pe[rows, 3 + cls[ok]] = errs[0][ok]
         F, E = np.zeros((L, N_LINE_Q)), np.zeros((L, N_LINE_Q))
-        np.add.at(F, lid, P)
-        np.add.at(E, lid, Pe)
+        F += _row_sums(lid, P, L)
+        E += _row_sums(lid, Pe, L)
         out = dict(F=F, E=E)
         out.update(_count_and_pairs(li, lq, roots, L))
         return out
@@ -1260,14 +1270,14 @@ class _Integrator:
             stalled = np.zeros(nc, bool)
             stalled[c[halves & (pair_sum[np.maximum(sib, 0)] > STALL_RATIO * pc["perr"])]] = True
             total = budget - left
-            np.add.at(total, c, err)
+            total += _row_sums(c, err, nc)
             fits = np.all(total <= budget, 1) & (np.bincount(c[cut], minlength=nc) == 0)
             give_up = stalled | np.any(left < 0.0, 1) | (np.bincount(c, minlength=nc) >= MAX_PIECES)
             done = np.ones(cut.size, bool) if last else ~cut & (
                 fits[c] | give_up[c] | _greedy_accept(err, left.sum(0)) | np.all(e_s <= e_t, 1))
-            np.add.at(out, c[done], F[done])
-            np.add.at(errs, c[done], err[done])
-            np.add.at(left, c[done], -err[done])
+            out += _row_sums(c[done], F[done], nc)
+            errs += _row_sums(c[done], err[done], nc)
+            left -= _row_sums(c[done], err[done], nc)
             halve = ~done & ~cut
             pc = _concat_pieces(_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm))
             if pc["sa"].size == 0:
@@ -1321,7 +1331,8 @@ def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
 
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
-              v_breaks=(), progress=None, recheck=True, class_max_depth=3, reference=None):
+              v_breaks=(), progress=None, recheck=True, class_max_depth=3, reference=None,
+              lines=True):
     """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
 
     domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
@@ -1334,8 +1345,10 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     result as ``recheck`` (paper section 5.2); class_max_depth: halvings in sigma of a
     mixed cell's line integrals; reference: dict quantity -> magnitude that the tolerance
     is relative to at least (for a piece of a larger integral, e.g. a singular neighbourhood
-    integrated apart from its face: its share of the face's tolerance). Returns a
-    QuadratureResult.
+    integrated apart from its face: its share of the face's tolerance); lines: integrate
+    mixed cells on lines (False: Gauss sums throughout, the quadtree's own error estimates;
+    class areas then converge only like the cell size, for callers that need the area and
+    K integrals only). Returns a QuadratureResult.
     """
     if not isinstance(domain, TrimmedDomain):
         raise InputError("integrate() needs a TrimmedDomain, got %s" % type(domain).__name__)
@@ -1349,6 +1362,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
                      u_breaks, v_breaks, progress)
     it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
+    it.lines = bool(lines)
     it.refine_to(int(max_depth))
     result = it.snapshot(int(max_depth), start)
     if recheck and not result.all_converged:

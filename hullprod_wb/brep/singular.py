@@ -245,7 +245,8 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
         return {"point": [pu, pv], "verdict": "not_audited",
                 "reason": "the neighbourhood of the point is crossed by trim curves"}
     # Only the area and the K integrals matter here: the class areas get the face's area
-    # as their tolerance reference and no line refinement.
+    # as their tolerance reference, and no cell is integrated on lines (the kink of |K| on
+    # K = 0 is left to the quadtree's own error estimate).
     ref = {q: abs(totals.get("A", 0.0)) for q in ("A_flat", "A_single", "A_elliptic", "A_saddle")}
     rows = []
     for k in range(levels):
@@ -255,7 +256,7 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
         for q in mine:
             res = integrate(TrimmedDomain.rectangle(0.0, sk, 0.0, sk), GradedQuadrantField(face_field, q, m),
                             tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth, recheck=False,
-                            class_max_depth=0, reference=ref)
+                            class_max_depth=0, reference=ref, lines=False)
             acc["area"] += res.values["A"]
             for key in ("int_abs_K", "int_K_plus", "int_K_minus"):
                 acc[key] += res.values[key]
