@@ -80,6 +80,44 @@ def test_largest_rectangle():
     assert largest_rectangle(np.zeros((3, 3), bool)) is None
 
 
+def test_grid_lines_place_creases_on_grid_lines():
+    from hullprod_wb.core.errors import InputError
+    from hullprod_wb.studies.sameface import grid_lines, grid_parameters, panel_split
+    lines, idx = grid_lines(0.5, 9.5, 48, [2.5, 3.5, 9.5, 11.0])  # only creases inside (lo, hi) count
+    assert lines.shape == (49,) and np.all(np.diff(lines) > 0)
+    assert lines[0] == 0.5 and lines[-1] == 9.5
+    assert list(lines[idx]) == [2.5, 3.5]  # exactly on grid lines
+    # 48 panels over pieces of length 2, 1, 6 (ideal 10.67, 5.33, 32): largest remainder 11, 5, 32
+    assert list(np.diff(np.r_[0, idx, 48])) == [11, 5, 32]
+    assert list(panel_split([1.0, 1.0, 1.0], 3)) == [1, 1, 1]
+    assert list(panel_split([0.01, 1.0], 12)) == [1, 11]  # every piece keeps at least one panel
+    with pytest.raises(InputError):
+        panel_split(np.ones(13), 12)
+    uniform, none = grid_lines(0.0, 1.0, 12, [])
+    assert np.array_equal(uniform, np.linspace(0.0, 1.0, 13)) and none.size == 0
+    u, v = grid_parameters((0.0, 3.0, 0.0, 1.0), 12, ([1.0], []))
+    assert np.isclose(u.reshape(13, 13)[:, 0], 1.0).sum() == 1
+
+
+def test_two_ring_interior_with_crease_rows():
+    from hullprod_wb.studies.sameface import break_rings, grid_triangles, strict_interior
+    n = 16
+    seeds = np.zeros((n + 1, n + 1), dtype=bool)
+    seeds[8, :] = True  # a crease row, treated like the boundary
+    keep = strict_interior(grid_triangles(n, "consistent"), (n + 1) ** 2,
+                           seeds=seeds.ravel()).reshape(n + 1, n + 1)
+    expect = np.zeros((n + 1, n + 1), dtype=bool)
+    expect[3:6, 3:n - 2] = True   # rows 6..10 are within two edges of row 8
+    expect[11:n - 2, 3:n - 2] = True
+    assert np.array_equal(keep, expect)
+    # break rings by grid index: row i is flagged when the break lies in [u_{i-2}, u_{i+2}]
+    lines = np.linspace(0.0, 1.0, n + 1)
+    flag = break_rings(lines, lines, ([8.5 / n], [])).reshape(n + 1, n + 1)
+    assert np.array_equal(np.flatnonzero(flag[:, 0]), [7, 8, 9, 10])  # |u_i - b| <= 2 h
+    flag = break_rings(lines, lines, ([], [0.5])).reshape(n + 1, n + 1)
+    assert np.array_equal(np.flatnonzero(flag[0]), [6, 7, 8, 9, 10])
+
+
 # ------------------------------------------------------------------------------------------
 # same-face study on exact BRep controls
 
@@ -108,6 +146,7 @@ def test_sameface_controls_converge(shapes, name):
             assert e[2] < 0.02, (name, pattern, q, e)
         # no knot lines below C2 on these exact patches: both masks agree
         assert all(r["eps_K_smooth"] == r["eps_K"] for r in recs)
+    assert face["creases"] == {"u": [], "v": []}
     assert all(r["H_sign"] in (1, -1) for r in face["levels"])
 
 
@@ -146,43 +185,153 @@ def test_sameface_trimmed_face_rectangle_inside_domain():
     assert inside.all()
 
 
+def creased_face(slope=-0.2):
+    """Cubic B-spline graph z = g(x) + h(y) with a crease (C0 triple knot) at u = x = 1.
+
+    g = 0.3 x^2 on [0, 1] and 0.3 + slope (x - 1) + 0.3 (x - 1)^2 on [1, 3] (the tangent
+    turns by atan 0.6 - atan(slope), 42 degrees for slope -0.2), h = 0.25 y^2 on [0, 1].
+    Poles from the Bernstein coefficients of t and t^2 in degree 3: (0, 1/3, 2/3, 1), (0, 0, 1/3, 1);
+    x(u) = u, y(v) = v.
+    """
+    from hullprod_wb.freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    import Part
+    lin, sq = np.array([0.0, 1 / 3, 2 / 3, 1.0]), np.array([0.0, 0.0, 1 / 3, 1.0])
+    g = np.r_[0.3 * sq, (0.3 + slope * 2 * lin + 0.3 * 4 * sq)[1:]]  # piece 2: t = (x - 1)/2
+    x = np.r_[lin, 1 + 2 * lin[1:]]
+    poles = [[FreeCAD.Vector(x[i], lin[j], g[i] + 0.25 * sq[j]) for j in range(4)] for i in range(7)]
+    s = Part.BSplineSurface()
+    s.buildFromPolesMultsKnots(poles, [4, 3, 4], [4, 4], [0.0, 1.0, 3.0], [0.0, 1.0], False, False, 3, 3)
+    return s.toShape()
+
+
+def test_sameface_crease_on_grid_lines():
+    """A C0 knot line (a crease) inside the face: on a grid line and masked like the boundary,
+    the recovery converges as on the smooth controls; straddled by triangles it diverges."""
+    from hullprod_wb.studies import sameface_study
+    face = creased_face()
+    aligned = sameface_study(face)["faces"][0]
+    assert aligned["creases"] == {"u": [1.0], "v": []}
+    uniform = sameface_study(face, align_creases=False)["faces"][0]
+    assert uniform["creases"] == {"u": [], "v": []}
+    for pattern in ("consistent", "alternating"):
+        a = {r["panels"]: r for r in aligned["levels"] if r["pattern"] == pattern}
+        u = {r["panels"]: r for r in uniform["levels"] if r["pattern"] == pattern}
+        for q in ("eps_H", "eps_K"):
+            # each piece is a smooth cubic patch: second order as on the controls (measured
+            # 48/12 ratios 0.068-0.072, 48 x 48 errors 0.05 % H, 0.10 % K)
+            assert a[12][q] > a[24][q] > a[48][q], (pattern, q)
+            assert a[48][q] / a[12][q] < 0.25 and a[48][q] < 0.02, (pattern, q)
+            # the uniform grid's crease lies inside a panel row (u = 1 at 15.1 panels of 48): the
+            # mesh curvature there grows like angle / h, so the error grows with refinement
+            # (measured H 68 -> 110 %, K 126 -> 210 %)
+            assert u[48][q] > u[12][q] > 0.5, (pattern, q)
+            # the 'smooth' diagnostic of the uniform grid (no two-ring across the knot line)
+            # sees the same smooth pieces: the same order of error as the aligned grid
+            assert u[48][q + "_smooth"] < 2 * a[48][q], (pattern, q)
+
+
+def _abs_K_shares_midpoint(path, m=200):
+    """{face: share of the integral of |K| dA}, midpoint rule on m x m parameter cells of each
+    (untrimmed) face; an estimate independent of the BRep backend's quadrature."""
+    from hullprod_wb.brep.differential import surface_differentials
+    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.surface_eval import SurfaceEvaluator
+    out = {}
+    for number, face in load_brep(path).faces:
+        ev = SurfaceEvaluator.for_face(face)
+        u0, u1, v0, v1 = ev.parameter_range
+        du, dv = (u1 - u0) / m, (v1 - v0) / m
+        uu, vv = np.meshgrid(u0 + du * (np.arange(m) + 0.5), v0 + dv * (np.arange(m) + 0.5), indexing="ij")
+        d = surface_differentials(ev.derivatives(uu.ravel(), vv.ravel()), ev.orientation_sign)
+        ok = d.regular & np.isfinite(d.K)
+        out[number] = float(np.sum(np.abs(d.K[ok]) * d.J[ok])) * du * dv
+    total = sum(out.values())
+    return {k: v / total for k, v in out.items()}
+
+
+#: Paper, Table tab:same_face_verification, 48 x 48 over its four hulls: eps_H <= 4.336 %,
+#: eps_K <= 8.211 %; the acceptance criterion rounds these to 4.4 % and 8.3 %.
+PAPER_MAX_EPS_H, PAPER_MAX_EPS_K = 0.044, 0.083
+
+
+def _by_level(face, pattern):
+    return {r["panels"]: r for r in face["levels"] if r["pattern"] == pattern}
+
+
 def test_sameface_real_hull():
-    """DTMB 5415 (public Overture IGES): the paper's Table tab:same_face_verification hull."""
+    """DTMB 5415 (public Overture IGES), the paper's Table tab:same_face_verification hull, on
+    the paper's mask with the crease rows of faces 1 and 2 on grid lines (module docstring)."""
     from hullprod_wb.studies import sameface_study
     path = shared_hull("brep/dtmb5415_half_overture.igs")
     doc = sameface_study(path, levels=(12, 48))
     assert [f["face"] for f in doc["faces"]] == [1, 2, 3]
+    assert [f["creases"]["u"] for f in doc["faces"]] == [[2.5, 3.5], [7.5], []]
+    # every face, both patterns, H and K: the 48 x 48 error below the 12 x 12 error
     for f in doc["faces"]:
         for pattern in ("consistent", "alternating"):
-            by = {r["panels"]: r for r in f["levels"] if r["pattern"] == pattern}
-            assert by[48]["eps_H"] < by[12]["eps_H"]
-            # the smooth mask (no stencil across a C0/C1 knot line) refines on every face;
-            # the full mask does not on face 2 (its u = 7.5 triple knot), see the docs
-            assert by[48]["eps_H_smooth"] < by[12]["eps_H_smooth"]
-            assert by[48]["eps_K_smooth"] < by[12]["eps_K_smooth"]
-    # face 2 (the main hull face): within the paper's published 48 x 48 range on the smooth mask
-    face2 = doc["faces"][1]
-    for r in face2["levels"]:
-        if r["panels"] == 48:
-            assert r["eps_H"] <= 0.044 and r["eps_H_smooth"] <= 0.044
-            assert r["eps_K_smooth"] <= 0.083
+            by = _by_level(f, pattern)
+            for q in ("eps_H", "eps_K"):
+                assert by[48][q] < by[12][q], (f["face"], pattern, q)
+    # face 1 (bow and sonar dome) carries the largest share of the integral of |K|: 0.901 by the
+    # BRep backend's per-face records, 0.906 by this midpoint estimate (200 x 200 cells)
+    shares = _abs_K_shares_midpoint(path)
+    assert max(shares, key=shares.get) == 1 and shares[1] > 0.85
+    # face 2 (main hull face, 80 % of the area): within the paper's range at 48 x 48
+    # (measured H 1.56 / 1.58 %, K 4.24 / 4.25 %)
+    for pattern in ("consistent", "alternating"):
+        r = _by_level(doc["faces"][1], pattern)[48]
+        assert r["eps_H"] <= PAPER_MAX_EPS_H and r["eps_K"] <= PAPER_MAX_EPS_K
+    # face 1 at 48 x 48 (measured H 5.53 / 5.31 %, K 8.73 / 8.94 %) is above that range, see
+    # test_sameface_largest_K_face_within_paper_range; its error is resolution-limited (dome
+    # radii down to half the grid spacing) and one more halving brings it inside the range
+    # (measured 96 x 96: H 1.94 / 1.87 %, K 5.40 / 5.72 %)
+    fine = sameface_study(path, faces=[1], levels=(96,))["faces"][0]
+    for r in fine["levels"]:
+        assert r["eps_H"] <= PAPER_MAX_EPS_H and r["eps_K"] <= PAPER_MAX_EPS_K, r["pattern"]
 
 
-def test_sameface_single_face_hull_within_paper_range():
-    """Wigley (WaveBEM IGES, one face, so it carries all of the integral of |K|)."""
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="open acceptance criterion: DTMB 5415 face 1 (90 % of the integral of |K|) "
+                   "measures H 5.53 / 5.31 %, K 8.73 / 8.94 % at 48 x 48; no shared hull meets it "
+                   "(docs/verification_studies.md, section 1)")
+def test_sameface_largest_K_face_within_paper_range():
+    """The acceptance criterion as written, on the paper's hull: every face's 48 x 48 errors
+    below its 12 x 12 errors, and on the face with the largest share of the integral of |K|
+    the 48 x 48 errors within the paper's published range, both diagonal patterns."""
+    from hullprod_wb.studies import sameface_study
+    path = shared_hull("brep/dtmb5415_half_overture.igs")
+    doc = sameface_study(path, levels=(12, 48))
+    for f in doc["faces"]:
+        for pattern in ("consistent", "alternating"):
+            by = _by_level(f, pattern)
+            assert by[48]["eps_H"] < by[12]["eps_H"] and by[48]["eps_K"] < by[12]["eps_K"]
+    shares = _abs_K_shares_midpoint(path)
+    top = next(f for f in doc["faces"] if f["face"] == max(shares, key=shares.get))
+    for pattern in ("consistent", "alternating"):
+        r = _by_level(top, pattern)[48]
+        assert r["eps_H"] <= PAPER_MAX_EPS_H and r["eps_K"] <= PAPER_MAX_EPS_K, pattern
+
+
+def test_sameface_single_face_hull_c1_knot_lines():
+    """Wigley (WaveBEM IGES, one face, so it carries all of the integral of |K|): two C1 knot
+    lines (H and K jump, the tangent plane does not), no crease."""
     from hullprod_wb.studies import sameface_study
     path = shared_hull("brep/wigley_half_wavebem.iges")
     doc = sameface_study(path, levels=(12, 48))
     (face,) = doc["faces"]
+    assert face["creases"] == {"u": [], "v": []}
+    assert face["levels"][0]["c2_breaks"]["v"] == pytest.approx([0.4344, 0.6784], abs=1e-4)
     for pattern in ("consistent", "alternating"):
-        by = {r["panels"]: r for r in face["levels"] if r["pattern"] == pattern}
+        by = _by_level(face, pattern)
         for q in ("eps_H", "eps_K"):
             assert by[48][q] < by[12][q]
-        # (the smooth mask at 12 x 12 keeps only a few vertices far from the knot lines, so
-        # its errors are not compared across levels here)
-        # paper's 48 x 48 range: eps_H <= 4.4 %, eps_K <= 8.3 % (the two C1 knot lines of this
-        # face are outside the smooth mask; the full mask is reported, not bounded, here)
-        assert by[48]["eps_H_smooth"] <= 0.044 and by[48]["eps_K_smooth"] <= 0.083
+        # the paper's mask includes the C1 lines (measured 48 x 48: H 8.95 %, K 11.1 %, above the
+        # paper's range); the 'smooth' diagnostic without their two-rings is a resolved smooth
+        # surface (measured H 0.20 / 0.21 %, K 0.34 / 0.36 %): the C1 lines carry the error
+        assert by[48]["eps_H_smooth"] < 0.005 and by[48]["eps_K_smooth"] < 0.005
+        assert by[48]["eps_H_smooth"] < 0.1 * by[48]["eps_H"]
+        assert by[48]["eps_K_smooth"] < 0.1 * by[48]["eps_K"]
 
 
 # ------------------------------------------------------------------------------------------

@@ -9,15 +9,33 @@ triangle connectivity differ. Both triangulations of every grid are compared:
 * ``alternating``: the diagonal alternates in a checkerboard ((i + j) odd uses (i, j)-(i+1, j+1)).
 
 The recovered H, K (mesh backend, Rusinkiewicz) are compared with the direct BRep H, K at
-the same vertices on a common mask: the two-ring strict interior (no boundary vertex within
-two edges) with finite, regular values of both H and K from both realizations. With
-delta = x_h - x_BRep and both vectors zeroed outside the mask,
+the same vertices on a common mask: the two-ring strict interior (no boundary or crease
+vertex within two edges, see below) with finite, regular values of both H and K from both
+realizations. With delta = x_h - x_BRep and both vectors zeroed outside the mask,
 
     eps_X = sqrt(delta^T M delta / x_BRep^T M x_BRep),  X in {H, K}     (eq:sameface_error)
 
 where M is the consistent P1 mass matrix of the physical triangles,
 M_ij = A_t/12 (1 + delta_ij) summed over triangles t. One global sign of the recovered H
 is chosen by its M-weighted correlation with the BRep H; K needs none.
+
+Creases (C0 knot lines). A knot line of multiplicity >= degree inside the region is a line
+where the surface is only C0: its tangent plane may turn there (DTMB 5415 face 1: up to
+36 degrees), so it is a sharp edge inside the face and H, K have no pointwise value on it.
+With ``align_creases`` (default) the grid lines of each direction are placed so that every
+such line is a grid line: the parameter interval is cut at the creases and each piece gets
+a share of the N panels proportional to its length (largest remainder, at least one panel),
+uniform inside the piece. No triangle then straddles a crease, the mesh interpolates the
+crease exactly, and the vertices on crease rows are treated as boundary vertices of the
+smooth pieces in the two-ring mask (vertices within two edges of a crease row are excluded,
+exactly as next to the face boundary). The grid is still N x N, structured, and its
+vertices are still exact points S(u, v) of the unchanged face. A level whose N panels are
+fewer than the pieces cannot place every crease on a grid line (InputError). Without
+``align_creases`` the grid is uniform and only the face boundary is masked.
+
+Diagnostic ``eps_*_smooth``: additionally without the vertices whose two-ring (grid rows
+i-2 .. i+2) reaches a knot line below C2 (C1 lines, where H and K jump but the surface is
+tangent-continuous); equal to eps_H, eps_K on a face without such lines.
 
 Inset region: an untrimmed face (its trimmed domain is its parameter rectangle) uses its
 ParameterRange shrunk by ``inset`` (default 5 %) of each parameter range at every side.
@@ -54,13 +72,56 @@ INTERIOR_RINGS = 2
 # structured grid
 
 
-def grid_parameters(rect, n):
+def panel_split(lengths, n):
+    """(k,) int panels per piece of a parameter interval cut into pieces of the given (k,)
+    float lengths: proportional to the lengths, at least one each, summing to n (largest
+    remainder). Raises InputError when n < k."""
+    L = np.asarray(lengths, dtype=float)
+    k, n = len(L), int(n)
+    if k > n:
+        raise InputError("%d panels cannot place a grid line on each of the %d crease lines "
+                         "inside the region" % (n, k - 1))
+    ideal = n * L / L.sum()
+    count = np.maximum(1, np.floor(ideal).astype(int))
+    while count.sum() < n:                      # k iterations at most
+        count[np.argmax(ideal - count)] += 1
+    while count.sum() > n:
+        count[np.argmax(np.where(count > 1, count - ideal, -np.inf))] -= 1
+    return count
+
+
+def grid_lines(lo, hi, n, creases=()):
+    """(n+1,) float parameter lines over [lo, hi] with every crease in (lo, hi) on a line,
+    and the (k,) int indices of the crease lines.
+
+    Without creases: np.linspace(lo, hi, n + 1). With creases, [lo, hi] is cut at them and
+    piece p gets :func:`panel_split` panels, uniform inside the piece.
+    """
+    lo, hi = float(lo), float(hi)
+    c = np.unique(np.asarray(creases, dtype=float))
+    c = c[(c > lo) & (c < hi)]
+    if c.size == 0:
+        return np.linspace(lo, hi, int(n) + 1), np.empty(0, dtype=np.int64)
+    edges = np.r_[lo, c, hi]
+    count = panel_split(np.diff(edges), n)
+    lines = np.concatenate([np.linspace(edges[p], edges[p + 1], count[p] + 1)[:-1]
+                            for p in range(len(count))] + [[hi]])
+    return lines, np.cumsum(count)[:-1].astype(np.int64)
+
+
+def grid_parameters(rect, n, creases=None):
     """(u, v) of the (n+1)^2 grid vertices over rect = (u0, u1, v0, v1), each ((n+1)^2,) float.
 
-    Vertex (i, j) (i along u, j along v) has index i (n+1) + j.
+    Vertex (i, j) (i along u, j along v) has index i (n+1) + j. creases: None (uniform grid)
+    or (u_creases, v_creases), parameter values placed on grid lines (:func:`grid_lines`).
     """
     u0, u1, v0, v1 = (float(x) for x in rect)
-    uu, vv = np.meshgrid(np.linspace(u0, u1, n + 1), np.linspace(v0, v1, n + 1), indexing="ij")
+    cu, cv = (), ()
+    if creases is not None:
+        cu, cv = creases
+    ul, _ = grid_lines(u0, u1, n, cu)
+    vl, _ = grid_lines(v0, v1, n, cv)
+    uu, vv = np.meshgrid(ul, vl, indexing="ij")
     return uu.ravel(), vv.ravel()
 
 
@@ -94,16 +155,19 @@ def mesh_edges(triangles):
     return np.unique(e, axis=0, return_counts=True)
 
 
-def strict_interior(triangles, n_vertices, rings=INTERIOR_RINGS):
-    """(n,) bool: vertices with no boundary vertex within `rings` edges.
+def strict_interior(triangles, n_vertices, rings=INTERIOR_RINGS, seeds=None):
+    """(n,) bool: vertices with no boundary (or seed) vertex within `rings` edges.
 
-    Boundary vertices lie on an edge used by one triangle only; the excluded set is the
-    boundary dilated `rings` times along the edge graph (rings = 2: the two-ring strict
+    Boundary vertices lie on an edge used by one triangle only; seeds: optional (n,) bool of
+    further vertices treated like boundary vertices (crease rows). The excluded set is their
+    union dilated `rings` times along the edge graph (rings = 2: the two-ring strict
     interior, whose curvature stencils never see an incomplete neighbourhood).
     """
     edges, count = mesh_edges(triangles)
     near = np.zeros(n_vertices, dtype=bool)
     near[edges[count == 1].ravel()] = True
+    if seeds is not None:
+        near |= np.asarray(seeds, dtype=bool)
     n_edges = len(edges)
     A = sparse.coo_matrix((np.ones(2 * n_edges), (np.r_[edges[:, 0], edges[:, 1]],
                                                   np.r_[edges[:, 1], edges[:, 0]])),
@@ -212,11 +276,13 @@ def largest_rectangle(grid):
     return box
 
 
-def inset_rectangle(face, inset=DEFAULT_INSET, check_levels=SAMEFACE_LEVELS):
+def inset_rectangle(face, inset=DEFAULT_INSET, check_levels=SAMEFACE_LEVELS, creases=None):
     """Parameter rectangle of the same-face grids for a Part.Face (see module docstring).
 
-    Returns dict(rect (u0, u1, v0, v1), base_rect, trimmed, method, inset).
-    Raises InputError when no rectangle inside the trimmed domain is found.
+    creases: None or a callable rect -> (u_creases, v_creases) whose lines the checked grids
+    place on grid lines (:func:`grid_parameters`). Returns dict(rect (u0, u1, v0, v1),
+    base_rect, trimmed, method, inset). Raises InputError when no rectangle inside the
+    trimmed domain is found.
     """
     if not 0.0 <= float(inset) < 0.5:
         raise InputError("the inset must be a fraction in [0, 0.5), got %r" % (inset,))
@@ -241,8 +307,9 @@ def inset_rectangle(face, inset=DEFAULT_INSET, check_levels=SAMEFACE_LEVELS):
     u0, u1, v0, v1 = base
     rect = (u0 + inset * (u1 - u0), u1 - inset * (u1 - u0), v0 + inset * (v1 - v0), v1 - inset * (v1 - v0))
     if not is_rect:
+        lines = None if creases is None else creases(rect)
         for n in check_levels:
-            u, v = grid_parameters(rect, n)
+            u, v = grid_parameters(rect, n, lines)
             if not inside(u, v).all():
                 raise InputError("the inset rectangle %r of a trimmed face leaves the trimmed domain "
                                  "at the %dx%d level" % (rect, n, n))
@@ -275,45 +342,62 @@ def _abs_stats(d):
     return float(np.median(a)), float(np.percentile(a, 95))
 
 
-def break_rings(u, v, rect, n, breaks, rings=INTERIOR_RINGS):
-    """(N,) bool: grid vertices whose `rings`-ring stencil reaches across a break line.
+def crease_lines(evaluator, rect):
+    """(u_creases, v_creases): knot lines strictly inside rect where the surface is only C0
+    (multiplicity >= degree; the tangent plane may turn there), each (k,) float."""
+    return evaluator.continuity_breaks(min_continuity=1, urange=rect[:2], vrange=rect[2:])
 
-    breaks: (u_breaks, v_breaks), parameter lines where the surface is less smooth than
-    C^2 (H and K jump there). Vertex (i, j) is flagged when a u break lies within `rings`
-    grid spacings of u_i (likewise v), i.e. inside the parameter span its curvature
-    stencil covers.
+
+def break_rings(u_lines, v_lines, breaks, rings=INTERIOR_RINGS):
+    """((n_u+1) (n_v+1),) bool: grid vertices whose `rings`-ring reaches a break line.
+
+    u_lines (n_u+1,), v_lines (n_v+1,): the grid lines; breaks: (u_breaks, v_breaks),
+    parameter lines where the surface is less smooth than C^2 (H and K jump there). Row i
+    is flagged when a u break b satisfies u_{i-rings} <= b <= u_{i+rings} (indices clipped
+    to the grid), i.e. lies in the parameter span its curvature stencil covers; likewise v.
     """
-    u0, u1, v0, v1 = rect
-    flag = np.zeros(u.size, dtype=bool)
-    for x, lo, hi, b in ((u, u0, u1, breaks[0]), (v, v0, v1, breaks[1])):
+    def flagged(lines, b):
+        lines = np.asarray(lines, dtype=float)
         b = np.asarray(b, dtype=float)
-        if b.size:
-            h = (hi - lo) / n
-            flag |= (np.abs(x[:, None] - b[None, :]) <= rings * h * (1 + 1e-9)).any(axis=1)
-    return flag
+        if b.size == 0:
+            return np.zeros(len(lines), dtype=bool)
+        idx = np.arange(len(lines))
+        lo = lines[np.clip(idx - rings, 0, len(lines) - 1)]
+        hi = lines[np.clip(idx + rings, 0, len(lines) - 1)]
+        return ((lo[:, None] <= b[None, :]) & (b[None, :] <= hi[:, None])).any(axis=1)
+    fu, fv = flagged(u_lines, breaks[0]), flagged(v_lines, breaks[1])
+    return (fu[:, None] | fv[None, :]).ravel()
 
 
-def compare_on_grid(evaluator, rect, n, pattern, curvature=None):
+def compare_on_grid(evaluator, rect, n, pattern, curvature=None, align_creases=True):
     """One same-face comparison: grid n x n over rect, one diagonal pattern.
 
-    evaluator: SurfaceEvaluator of the face. Returns a dict with panels, pattern, counts,
-    eps_H, eps_K (fractions, eq:sameface_error), the H sign used, and median /
-    95th-percentile absolute errors of H (1/length) and K (1/length^2) on the retained
-    vertices. H_reference_negligible / K_reference_negligible flag a quasi-zero reference
-    (RMS |H| d or |K| d^2 <= 1e-4, d the grid's diagonal). Also eps_H_smooth, eps_K_smooth: the same errors with the vertices whose
-    two-ring reaches across a knot line of continuity below C^2 (where the BRep H, K jump)
-    removed from the mask as well; equal to eps_H, eps_K on a C^2 face.
+    evaluator: SurfaceEvaluator of the face. align_creases: C0 knot lines on grid lines and
+    their rows masked like the boundary (module docstring). Returns a dict with panels,
+    pattern, counts, eps_H, eps_K (fractions, eq:sameface_error), the H sign used, and
+    median / 95th-percentile absolute errors of H (1/length) and K (1/length^2) on the
+    retained vertices. H_reference_negligible / K_reference_negligible flag a quasi-zero
+    reference (RMS |H| d or |K| d^2 <= 1e-4, d the grid's diagonal). creases: the lines
+    placed on grid rows; eps_H_smooth, eps_K_smooth: the same errors without the vertices
+    whose two-ring reaches a knot line below C2 (c2_breaks) as well.
     """
     from ..brep.differential import surface_differentials
     curvature = _curvature_function(curvature)
-    u, v = grid_parameters(rect, n)
+    c_u, c_v = crease_lines(evaluator, rect) if align_creases else (np.empty(0), np.empty(0))
+    ul, iu = grid_lines(rect[0], rect[1], n, c_u)
+    vl, iv = grid_lines(rect[2], rect[3], n, c_v)
+    uu, vv = np.meshgrid(ul, vl, indexing="ij")
+    u, v = uu.ravel(), vv.ravel()
+    seeds = np.zeros((n + 1, n + 1), dtype=bool)
+    seeds[iu, :] = True
+    seeds[:, iv] = True
     der = evaluator.derivatives(u, v)
     ref = surface_differentials(der, evaluator.orientation_sign)
     V = np.asarray(der[0], dtype=float)
     T = grid_triangles(n, pattern, flip=evaluator.orientation_sign < 0)
     rec = curvature(V, T)
     H_h, K_h = _field(rec, "H"), _field(rec, "K")
-    mask = strict_interior(T, len(V)) & ref.regular
+    mask = strict_interior(T, len(V), seeds=seeds.ravel()) & ref.regular
     mask &= np.isfinite(ref.H) & np.isfinite(ref.K) & np.isfinite(H_h) & np.isfinite(K_h)
     M = p1_mass_matrix(V, T)
     sign = h_sign_alignment(H_h, ref.H, M, mask)
@@ -325,7 +409,7 @@ def compare_on_grid(evaluator, rect, n, pattern, curvature=None):
     u_br, v_br = evaluator.continuity_breaks(min_continuity=2, urange=rect[:2], vrange=rect[2:])
     size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     rms_H, rms_K = _rms(ref.H, M, mask), _rms(ref.K, M, mask)
-    smooth = mask & ~break_rings(u, v, rect, n, (u_br, v_br))
+    smooth = mask & ~break_rings(ul, vl, (u_br, v_br))
     return {"panels": int(n), "pattern": pattern, "n_vertices": int(len(V)), "n_triangles": int(len(T)),
             "n_retained": int(mask.sum()), "eps_H": eps_H, "eps_K": eps_K, "H_sign": int(sign),
             "median_abs_error_H": med_H, "p95_abs_error_H": p95_H,
@@ -333,7 +417,8 @@ def compare_on_grid(evaluator, rect, n, pattern, curvature=None):
             "rms_H_ref": rms_H, "rms_K_ref": rms_K,
             "H_reference_negligible": bool(rms_H is None or rms_H * size <= NEGLIGIBLE_H),
             "K_reference_negligible": bool(rms_K is None or rms_K * size ** 2 <= NEGLIGIBLE_K),
-            "c2_breaks": {"u": u_br, "v": v_br}, "n_retained_smooth": int(smooth.sum()),
+            "creases": {"u": c_u, "v": c_v}, "c2_breaks": {"u": u_br, "v": v_br},
+            "n_retained_smooth": int(smooth.sum()),
             "eps_H_smooth": relative_l2_error(H_h, ref.H, M, smooth) if smooth.any() else None,
             "eps_K_smooth": relative_l2_error(K_h, ref.K, M, smooth) if smooth.any() else None}
 
@@ -363,22 +448,25 @@ def error_ratios(levels):
 
 
 def sameface_face(face, levels=SAMEFACE_LEVELS, patterns=PATTERNS, inset=DEFAULT_INSET, curvature=None,
-                  progress=None, number=None):
+                  progress=None, number=None, align_creases=True):
     """Same-face study of one Part.Face: one record per level and pattern (see module docstring).
 
-    Returns dict(face, surface_kind, area, rect..., levels [records of compare_on_grid],
-    ratios [error_ratios], finer_below_coarsest {eps_H, eps_K}).
+    Returns dict(face, surface_kind, area, rect..., creases {u, v}, levels [records of
+    compare_on_grid], ratios [error_ratios], finer_below_coarsest {eps_H, eps_K}).
+    Raises InputError when a level has fewer panels than the crease-cut pieces.
     """
     from ..brep.surface_eval import SurfaceEvaluator
     progress = progress or null_progress
     levels = sorted(int(n) for n in levels)
     ev = SurfaceEvaluator.for_face(face)
-    region = inset_rectangle(face, inset, check_levels=levels)
+    creases = (lambda rect: crease_lines(ev, rect)) if align_creases else None
+    region = inset_rectangle(face, inset, check_levels=levels, creases=creases)
+    c_u, c_v = creases(region["rect"]) if align_creases else (np.empty(0), np.empty(0))
     records = []
     steps = len(levels) * len(patterns)
     for k, (n, pattern) in enumerate((n, p) for n in levels for p in patterns):
         progress(k / steps, "face %s: %dx%d %s" % (number, n, n, pattern))
-        records.append(compare_on_grid(ev, region["rect"], n, pattern, curvature))
+        records.append(compare_on_grid(ev, region["rect"], n, pattern, curvature, align_creases))
     ratios = error_ratios(records)
     below = {}
     for q in ("eps_H", "eps_K"):
@@ -387,19 +475,22 @@ def sameface_face(face, levels=SAMEFACE_LEVELS, patterns=PATTERNS, inset=DEFAULT
     out = {"face": number, "surface_kind": ev.kind, "area": float(face.Area),
            "orientation_sign": ev.orientation_sign}
     out.update(region)
-    out.update({"levels": records, "ratios": ratios, "finer_below_coarsest": below})
+    out.update({"creases": {"u": c_u, "v": c_v}, "levels": records, "ratios": ratios,
+                "finer_below_coarsest": below})
     return out
 
 
 def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS, inset=DEFAULT_INSET,
-                   curvature=None, progress=None, abs_K_share=None):
+                   curvature=None, progress=None, abs_K_share=None, align_creases=True):
     """Same-face BRep-to-mesh recovery study of a BRep (path, Part.Shape or FreeCAD object).
 
     faces: 1-based face numbers (None: all faces). A face whose study cannot be run (no
     rectangle inside its trimmed domain, zero reference curvature) is listed with a
     'skipped' reason. abs_K_share: optional {face: share of the hull's integral of |K|}
-    copied into the face records (e.g. from :func:`abs_K_shares`). Returns a JSON-safe
-    dict: study, input, settings, faces [sameface_face records], table (flat rows).
+    copied into the face records (e.g. from :func:`abs_K_shares`). align_creases: C0 knot
+    lines on grid lines, their rows masked like the boundary (module docstring; False: the
+    uniform grid). Returns a JSON-safe dict: study, input, settings, faces
+    [sameface_face records], table (flat rows).
     """
     from ..brep.loading import load_brep
     progress = progress or null_progress
@@ -419,7 +510,7 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
     for k, (number, face) in enumerate(brep.faces):
         sub = _sub_progress(progress, k / nf, (k + 1) / nf)
         try:
-            rec = sameface_face(face, levels, patterns, inset, curvature, sub, number)
+            rec = sameface_face(face, levels, patterns, inset, curvature, sub, number, align_creases)
         except InputError as exc:
             rec = {"face": number, "skipped": " ".join(str(exc).split()), "levels": []}
         if abs_K_share is not None and number in abs_K_share:
@@ -431,8 +522,10 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
              for f in out_faces for r in f["levels"]]
     doc = {"study": "sameface", "input": brep.info, "units": brep.units,
            "settings": {"levels": levels, "patterns": list(patterns), "inset": float(inset),
-                        "interior_rings": INTERIOR_RINGS,
-                        "mask": "two-ring strict interior with finite, regular H and K of both realizations",
+                        "interior_rings": INTERIOR_RINGS, "align_creases": bool(align_creases),
+                        "mask": ("two-ring strict interior of the boundary%s with finite, regular H and K "
+                                 "of both realizations" % (" and of the crease rows (C0 knot lines placed on "
+                                                           "grid lines)" if align_creases else "")),
                         "norm": "consistent P1 mass matrix on the physical triangles (eq:sameface_error)",
                         "H_sign": "one global sign of the recovered H by M-weighted correlation with the BRep H"},
            "faces": out_faces, "table": table}
