@@ -14,7 +14,15 @@ from .core.errors import InputError
 from .core.progress import StderrProgress, null_progress
 
 #: Modules that add further subcommands (each has add_parser(subparsers)); absent ones are skipped.
-PLUGIN_COMMANDS = ("hullprod_wb.studies.cli", "hullprod_wb.batch.cli")
+#: Commands registered by other modules: name -> (module with add_parser(subparsers), help).
+#: A module is imported only when its command runs (its parser lists the sub-options);
+#: otherwise the command is listed by name, so starting `analyze` stays light.
+PLUGIN_COMMANDS = {
+    "study": ("hullprod_wb.studies.cli",
+              "verification studies (same-face, refinement, representation, thresholds)"),
+    "batch": ("hullprod_wb.batch.cli",
+              "signatures of many hulls (files, folders, globs, FreeCAD document variants)"),
+}
 
 
 def parse_faces(text):
@@ -50,7 +58,8 @@ def quadrature_options(args):
             if v is not None}
 
 
-def build_parser():
+def build_parser(command=None):
+    """The argument parser; plugin commands other than command are listed without options."""
     parser = argparse.ArgumentParser(prog="hullprod", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
@@ -73,12 +82,14 @@ def build_parser():
     e.add_argument("--quiet", action="store_true", help="no progress messages")
     e.set_defaults(func=run_example)
 
-    for name in PLUGIN_COMMANDS:
-        try:
-            mod = importlib.import_module(name)
-        except ImportError:
-            continue
-        mod.add_parser(sub)
+    for cmd, (name, text) in PLUGIN_COMMANDS.items():
+        if cmd == command:
+            try:
+                importlib.import_module(name).add_parser(sub)
+                continue
+            except ImportError:
+                pass
+        sub.add_parser(cmd, help=text, add_help=False)
     return parser
 
 
@@ -129,7 +140,8 @@ def run_example(args):
 
 
 def main(argv=None):
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(next((a for a in argv if not a.startswith("-")), None))
     args = parser.parse_args(argv)
     try:
         return args.func(args)

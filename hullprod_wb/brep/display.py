@@ -5,7 +5,6 @@ display, export and the automatic reference length: H and K are evaluated exactl
 nodes and never enter the integrals (paper section 4.1).
 """
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..core.fields import DistributedFields
 
@@ -27,6 +26,7 @@ def face_display_mesh(face, deflection, field):
         return uv, None, np.zeros((0, 3), dtype=np.int64)
     values = field(uv[:, 0], uv[:, 1])
     P = np.array([[p.x, p.y, p.z] for p in pts])
+    from scipy.spatial import cKDTree  # only when fields are wanted (import 0.07 s)
     _, index = cKDTree(values["points"]).query(P)
     T = index[np.asarray(tris, dtype=np.int64)]
     keep = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])

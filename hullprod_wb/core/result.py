@@ -12,16 +12,17 @@ from .validity import STATUS_MEANING
 def software_versions():
     """Versions of this package and of what it computes with (None where absent)."""
     import numpy
-    import scipy
     from .. import __version__
     from ..freecad_env import versions
-    try:
-        import trimesh
-        tm = trimesh.__version__
-    except ImportError:
-        tm = None
+    from importlib.metadata import PackageNotFoundError, version
+
+    def dist_version(name):  # from the distribution's metadata: no import (trimesh: 0.15 s)
+        try:
+            return version(name)
+        except PackageNotFoundError:
+            return None
     out = {"package": "hullprod_wb", "version": __version__, "python": platform.python_version(),
-           "numpy": numpy.__version__, "scipy": scipy.__version__, "trimesh": tm}
+           "numpy": numpy.__version__, "scipy": dist_version("scipy"), "trimesh": dist_version("trimesh")}
     out.update(versions())
     return out
 

@@ -16,11 +16,19 @@ GUI-free Python API; each study returns a plain JSON-safe dict:
 
 progress is a callable progress(fraction, message).
 """
-from .refinement import refinement_study  # noqa: F401
-from .report import report_html, write_report  # noqa: F401
-from .representation import representation_study  # noqa: F401
-from .sameface import sameface_study  # noqa: F401
-from .thresholds import threshold_study  # noqa: F401
+import importlib
+
+#: Public name -> module; modules are imported on first use (the command line registers the
+#: study commands without importing the meshing and plotting libraries they need).
+_EXPORTS = {"refinement_study": "refinement", "report_html": "report", "write_report": "report",
+            "representation_study": "representation", "sameface_study": "sameface",
+            "threshold_study": "thresholds"}
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        return getattr(importlib.import_module("." + _EXPORTS[name], __name__), name)
+    raise AttributeError("module %r has no attribute %r" % (__name__, name))
 
 __all__ = ["sameface_study", "refinement_study", "representation_study", "threshold_study",
            "write_report", "report_html"]
