@@ -737,7 +737,10 @@ class _Integrator:
         klo, khi = widened(K)
         hlo, hhi = widened(H)
         tk, th = self.tau_K, self.tau_H
-        out |= meets(klo, khi, -tk, 0.0, tk) | (klo <= tk) & (khi >= -tk) & meets(hlo, hhi, -th, th)
+        # K = 0 only matters where K changes sign (a kink of |K|); K identically zero (planes,
+        # cylinders, cones) has none
+        out |= meets(klo, khi, -tk, tk) | ((klo < 0.0) & (khi > 0.0)) \
+            | (klo <= tk) & (khi >= -tk) & meets(hlo, hhi, -th, th)
         return anyreg & out
 
     # -- quadtree -----------------------------------------------------------------------------
