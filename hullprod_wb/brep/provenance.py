@@ -10,28 +10,43 @@ CREASE_ANGLE_DEG = 1.0
 EDGE_SAMPLES = 5
 
 
-def _edge_points(edge, n=EDGE_SAMPLES):
+def _edge_params(edge, n=EDGE_SAMPLES):
     a, b = edge.FirstParameter, edge.LastParameter
-    return [edge.valueAt(a + (b - a) * t) for t in np.linspace(0.05, 0.95, n)]
+    return [a + (b - a) * t for t in np.linspace(0.05, 0.95, n)]
 
 
-def _face_normal_at(face, point):
-    u, v = face.Surface.parameter(point)
+def _normal_on_edge(face, edge, t, point):
+    """Unit normal (3,) of face at parameter t of its boundary edge (point: the 3-D point):
+    (u, v) from the edge's p-curve on the face (exact, cheap), else by projection."""
+    pc = face.curveOnSurface(edge)
+    if pc is not None:
+        uv = pc[0].value(t)
+        u, v = uv.x, uv.y
+    else:
+        u, v = face.Surface.parameter(point)
     n = face.normalAt(u, v)
     return np.array([n.x, n.y, n.z])
+
+
+def _on_edges(point, edges, tol):
+    """(edge, parameter) of the first edge within tol of point, or None."""
+    import Part
+    vertex = Part.Vertex(point)
+    for e in edges:
+        if e.distToShape(vertex)[0] < tol:
+            return e, e.Curve.parameter(point)
+    return None
 
 
 def edge_report(shape, faces):
     """Free and shared boundary edges of the assessed faces, with continuity across them.
 
-    A face's boundary edge is shared when sample points along it lie on another assessed
-    face (within 1e-5 of the shape's size); this covers sewn shells, unsewn IGES faces and
-    T-junctions alike. Shared lengths count each shared curve once (half the sum over the
-    two sides). Normals of the two faces differing by more than CREASE_ANGLE_DEG at any
-    sample make a C0 crease.
+    A face's boundary edge is shared when sample points along it lie on boundary edges of
+    another assessed face (within 1e-5 of the shape's size); this covers sewn shells, unsewn
+    IGES faces and T-junctions of edges alike. Shared lengths count each shared curve once
+    (half the sum over the two sides). Normals of the two faces differing by more than
+    CREASE_ANGLE_DEG at any sample make a C0 crease (normals from the edges' p-curves).
     """
-    import Part
-    from FreeCAD import Base
     size = max(shape.BoundBox.DiagonalLength, 1e-300)
     tol = 1e-5 * size
     n_free = n_shared = 0
@@ -41,18 +56,23 @@ def edge_report(shape, faces):
     for number, face in faces:
         bb = face.BoundBox
         bb.enlarge(tol)
-        boxes.append((number, face, bb))
-    for number, face in faces:
-        for edge in face.Edges:
-            if edge.Length <= tol:
-                continue  # degenerated edge (collapsed side of a patch)
-            pts = _edge_points(edge)
+        boxes.append((number, face, bb, [e for e in face.Edges if e.Length > tol]))
+    for number, face, _, edges in boxes:
+        for edge in edges:  # degenerated edges (collapsed sides of a patch) are left out
+            ts = _edge_params(edge)
+            pts = [edge.valueAt(t) for t in ts]
             partner = None
-            for other, oface, bb in boxes:
+            for other, oface, bb, oedges in boxes:
                 if other == number or not all(bb.isInside(p) for p in pts):
                     continue
-                if all(oface.distToShape(Part.Vertex(Base.Vector(p)))[0] < tol for p in pts):
-                    partner = (other, oface)
+                hits = []
+                for p in pts:
+                    hit = _on_edges(p, oedges, tol)
+                    if hit is None:
+                        break
+                    hits.append(hit)
+                if len(hits) == len(pts):
+                    partner = (other, oface, hits)
                     break
             if partner is None:
                 n_free += 1
@@ -61,9 +81,10 @@ def edge_report(shape, faces):
             n_shared += 1
             shared_len += 0.5 * edge.Length
             angles = []
-            for p in pts:
+            for t, p, (oedge, ot) in zip(ts, pts, partner[2]):
                 try:
-                    c = abs(float(np.dot(_face_normal_at(face, p), _face_normal_at(partner[1], p))))
+                    c = abs(float(np.dot(_normal_on_edge(face, edge, t, p),
+                                         _normal_on_edge(partner[1], oedge, ot, p))))
                     angles.append(np.degrees(np.arccos(min(1.0, c))))
                 except Exception:  # normal undefined at a degenerate point
                     continue
