@@ -886,9 +886,11 @@ class _Integrator:
         measured at the parent's own o x o Gauss nodes, which are not among the grid nodes:
         d_f = max |interpolant - f| there. Error of the line integrals taken on the
         interpolant: 2 P max |d(K J)| for the K integrals (P: the cell's parameter measure)
-        and, for each class area, A sum_levels 2 d_g / range_g over the levels g the cell's
-        values reach within d_g (a level curve moves by about d_g / |grad g|, and |grad g|
-        is about range_g over the cell). A cell uses its interpolant when every sample is
+        and, for each class area, A 2 d_g / range_g summed over the class's bounding levels g
+        (K = tau_K: elliptic against flat or single; K = -tau_K: saddle against them; H = +-tau_H
+        where |K| <= tau_K may hold: flat against single) that the cell's values reach within
+        d_g (a level curve moves by about d_g / |grad g|, and |grad g| is about range_g over
+        the cell), plus each class's area times max d_J / min J. A cell uses its interpolant when every sample is
         regular and finite and these errors are within SURROGATE_SHARE of its budget
         (m, 7); the errors are then part of its line error estimate.
 
@@ -915,15 +917,30 @@ class _Integrator:
         vals = np.concatenate((F.reshape(m, 3, -1), P.reshape(m, 3, -1)), 2)
         lo, hi = vals.min(2), vals.max(2)
         tk, th = self.tau_K, self.tau_H
-        frac = np.zeros(m)
-        for f, levels in ((1, (-tk, 0.0, tk)), (2, (-th, th))):
-            rng = np.maximum(hi[:, f] - lo[:, f], 1e-300)
-            for lev in levels:
-                near = (lo[:, f] - d[:, f] <= lev) & (hi[:, f] + d[:, f] >= lev)
-                frac += np.where(near, 2.0 * d[:, f] / rng, 0.0)
+
+        def band(f, lev):
+            """Area fraction of the cell within d_f of the level lev of function f."""
+            near = (lo[:, f] - d[:, f] <= lev) & (hi[:, f] + d[:, f] >= lev)
+            return np.where(near, 2.0 * d[:, f] / np.maximum(hi[:, f] - lo[:, f], 1e-300), 0.0)
+
+        k_plus, k_minus = band(1, tk), band(1, -tk)
+        # where |K| <= tau_K may hold, |H| = tau_H separates flat from single
+        low_K = (lo[:, 1] - d[:, 1] <= tk) & (hi[:, 1] + d[:, 1] >= -tk)
+        h_band = np.where(low_K, band(2, th) + band(2, -th), 0.0)
+        flat_ok = (lo[:, 2] - d[:, 2] <= th) & (hi[:, 2] + d[:, 2] >= -th)
+        single_ok = (hi[:, 2] + d[:, 2] > th) | (lo[:, 2] - d[:, 2] < -th)
+        A = np.abs(units["Q"][:, 0])
         err = np.empty((m, N_LINE_Q))
         err[:, :3] = (2.0 * units["pmeas"] * dKJ)[:, None]
-        err[:, 3:] = (np.abs(units["Q"][:, 0]) * frac)[:, None]
+        # columns flat, single, elliptic, saddle: K = +tau_K borders elliptic, K = -tau_K
+        # saddle, both border flat or single (whichever |H| allows), H = +-tau_H both
+        err[:, 3] = A * (np.where(flat_ok, k_plus + k_minus, 0.0) + h_band)
+        err[:, 4] = A * (np.where(single_ok, k_plus + k_minus, 0.0) + h_band)
+        err[:, 5] = A * k_plus
+        err[:, 6] = A * k_minus
+        # and the interpolated J itself, in each class's area
+        rel_J = d[:, 0] / np.maximum(np.abs(lo[:, 0]), 1e-300)
+        err[:, 3:] += np.abs(units["Q"][:, N_SMOOTH:]) * rel_J[:, None]
         err = np.where(reg[:, None], err, np.inf)
         use = np.all(err <= SURROGATE_SHARE * budget, 1)
         return dict(C=C, use=use, err=np.where(use[:, None], err, 0.0))
