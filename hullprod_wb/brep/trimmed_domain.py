@@ -17,6 +17,12 @@ Between consecutive breakpoints (vertices, u-extrema, corner knots) the same pie
 every vertical line in the same v order, so Omega restricted to a slab u0 < u < u1 is a
 union of strips lo_j(u) <= v <= hi_j(u), each bound by a piece (or a constant v when the
 piece is a horizontal line), which is what the quadrature integrates over.
+
+Faces read from files may need exact repairs, which TrimmedDomain.from_face makes and
+lists in ``repairs``: a wrong or missing p-curve on a plane becomes the affine image of
+the edge's 3-D curve, and loops left open at a vertex are closed by a parameter segment
+whose image stays inside that vertex's tolerance ball (a collapsed side of the surface,
+or a gap within the shape's own tolerance); otherwise the loops stay an InputError.
 """
 import math
 
@@ -33,6 +39,24 @@ SAMPLES_PER_TURN = 64
 SNAP_RTOL = 1e-11
 #: Loops whose end points are further apart than this fraction of the domain's size are open.
 CLOSURE_RTOL = 1e-5
+#: OpenCascade's Precision::Confusion (model units): points closer than this coincide.
+PRECISION_CONFUSION = 1e-7
+#: Points of an edge at which a plane's p-curve is compared with the edge's 3-D curve.
+PLANE_CHECK_SAMPLES = 9
+#: Points of a closing parameter segment checked against its vertex's tolerance ball.
+GAP_SAMPLES = 33
+
+
+class OpenTrimLoops(InputError):
+    """The trim curves do not form closed loops.
+
+    ends (2n, 2) float: start and end point of each curve (curve i has ends 2i, 2i + 1);
+    open_ends (k,) int: indices of the ends with no other end within ``tolerance``.
+    """
+
+    def __init__(self, message, ends, open_ends, tolerance):
+        super().__init__(message)
+        self.ends, self.open_ends, self.tolerance = ends, open_ends, tolerance
 
 
 # ---------------------------------------------------------------------------------------------
@@ -304,13 +328,200 @@ def curve_from_geom2d(geom, s0, s1):
 
 
 # ---------------------------------------------------------------------------------------------
+# exact repairs of faces read from files (used by TrimmedDomain.from_face)
+
+
+def _xyz(p):
+    return (float(p.x), float(p.y), float(p.z))
+
+
+def plane_frame(face):
+    """(O, X, Y) (3,) float each when the face's surface is a plane S(u, v) = O + u X + v Y
+    (X, Y orthonormal), else None. Read from S itself: O = S(0, 0), X = S(1, 0) - O,
+    Y = S(0, 1) - O (exact, S is affine)."""
+    surface = face.Surface
+    while type(surface).__name__ == "RectangularTrimmedSurface":
+        surface = surface.BasisSurface
+    if type(surface).__name__ != "Plane":
+        return None
+    o, x, y = (np.array(_xyz(surface.value(u, v))) for u, v in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)))
+    return o, x - o, y - o
+
+
+def plane_image(edge, frame):
+    """Exact p-curve of a 3-D edge lying in the plane ``frame`` = (O, X, Y).
+
+    The map x -> ((x - O).X, (x - O).Y) is affine and inverts S on the plane, so the image of
+    a line is the segment between the images of its ends, of a circle or ellipse
+    c + a cos s + b sin s the conic with the images of c, a, b, and of a (rational)
+    B-spline or Bezier curve the curve with the images of its poles (same knots and
+    weights: NURBS are affine invariant). Other curves, or an image that does not
+    reproduce the edge's points to 1e-12 of its size, are mapped point by point
+    (:class:`FunctionCurve2D` of Edge.valueAt). Parameter: the edge's own.
+    """
+    o, X, Y = frame
+    L = np.array([X, Y])  # (2, 3)
+
+    def image(points):  # (n, 3) -> (n, 2)
+        return (np.asarray(points, dtype=float).reshape(-1, 3) - o) @ L.T
+
+    s0, s1 = (float(x) for x in edge.ParameterRange)
+    geom = edge.Curve
+    while type(geom).__name__ == "TrimmedCurve":
+        geom = geom.BasisCurve
+    kind = type(geom).__name__
+    curve = None
+    if kind in ("Line", "LineSegment"):
+        ends = image([_xyz(edge.valueAt(s0)), _xyz(edge.valueAt(s1))])
+        curve = NurbsCurve2D.line(ends[0], ends[1], s0, s1)
+    elif kind in ("Circle", "Ellipse"):
+        rx, ry = ((geom.Radius, geom.Radius) if kind == "Circle"
+                  else (geom.MajorRadius, geom.MinorRadius))
+        curve = ConicArc2D(image([_xyz(geom.Center)])[0], L @ np.array(_xyz(geom.XAxis)),
+                           L @ np.array(_xyz(geom.YAxis)), rx, ry, s0, s1)
+    elif kind in ("BSplineCurve", "BezierCurve"):
+        g = geom.copy()
+        if kind == "BSplineCurve" and g.isPeriodic():
+            g.setNotPeriodic()
+        poles = image([_xyz(q) for q in g.getPoles()])
+        knots = (list(g.KnotSequence) if kind == "BSplineCurve"
+                 else [0.0] * (g.Degree + 1) + [1.0] * (g.Degree + 1))
+        curve = NurbsCurve2D(g.Degree, knots, poles, list(g.getWeights()), s0, s1)
+    s = np.linspace(s0, s1, 5)
+    ref = image([_xyz(edge.valueAt(float(x))) for x in s])
+    size = max(1.0, float(np.abs(ref).max()))
+    if curve is None or np.abs(curve.value(s) - ref).max() > 1e-12 * size:
+        def value(t):
+            return image([_xyz(edge.valueAt(float(x))) for x in t])
+
+        def derivative(t):
+            return np.array([_xyz(edge.derivative1At(float(x))) for x in t]).reshape(-1, 3) @ L.T
+        curve = FunctionCurve2D(value, derivative, s0, s1)
+    return curve
+
+
+def plane_pcurve(edge, pcurve, frame):
+    """The p-curve of an edge of a planar face, checked against the edge's 3-D curve.
+
+    pcurve: face.curveOnSurface(edge) ((geom2d, s0, s1) or None). Returns (curve, note):
+    the stored p-curve and None when S(p-curve) stays within the edge's tolerance of the
+    3-D curve at PLANE_CHECK_SAMPLES parameters; otherwise, when the 3-D curve lies in the
+    plane within that tolerance, its exact image (:func:`plane_image`) and a note. A
+    missing p-curve whose edge leaves the plane raises InputError; a wrong one is kept.
+    """
+    stored = None if pcurve is None else curve_from_geom2d(*pcurve)
+    if edge.Degenerated:
+        if stored is None:
+            raise InputError("degenerated edge without a p-curve on a plane")
+        return stored, None
+    o, X, Y = frame
+    tol = max(float(edge.Tolerance), PRECISION_CONFUSION)
+    s0, s1 = (float(x) for x in edge.ParameterRange)
+    try:
+        pts = np.array([_xyz(edge.valueAt(float(x)))
+                        for x in np.linspace(s0, s1, PLANE_CHECK_SAMPLES)])
+        kind = type(edge.Curve).__name__
+    except Exception:  # OCC raises its own types: no 3-D curve to compare with
+        if stored is None:
+            raise InputError("face edge has neither a p-curve nor a 3-D curve") from None
+        return stored, None
+    deviation = np.inf
+    if stored is not None:
+        uv = stored.value(np.linspace(stored.s0, stored.s1, PLANE_CHECK_SAMPLES))
+        on_plane = o + uv[:, :1] * X + uv[:, 1:] * Y
+        deviation = float(np.linalg.norm(on_plane - pts, axis=1).max())
+        if deviation <= tol:
+            return stored, None
+    normal = np.cross(X, Y)
+    off_plane = float(np.abs((pts - o) @ normal).max())
+    if off_plane > tol:
+        if stored is None:
+            raise InputError("face edge has no p-curve and its 3-D curve leaves the face's plane "
+                             "by %.3g (tolerance %.3g)" % (off_plane, tol))
+        return stored, None
+    what = ("missing p-curve" if stored is None else
+            "p-curve %.3g off its 3-D curve (tolerance %.3g)" % (deviation, tol))
+    return plane_image(edge, frame), "plane: %s replaced by the image of the 3-D %s" % (
+        what, kind)
+
+
+def close_gaps(face, curves, edges, error):
+    """Straight parameter segments closing the trim loops at their open ends, exactly.
+
+    error: the :class:`OpenTrimLoops` of ``curves`` (the p-curves of ``edges``, same order).
+    The open ends are grouped by the topological vertex of their edge (the edge's first
+    vertex for a p-curve's start, its last for its end) and paired, nearest first, within
+    a vertex. The segment from end p to end q is accepted when its image
+    g(t) = S(p + t (q - p)) stays in the vertex's tolerance ball: max |g(t_i) - V| over
+    GAP_SAMPLES points plus the chord bound h^2/8 max |g''| (h the sample spacing) is at
+    most the vertex tolerance. Exactness: a BRep vertex is the ball |x - V| <= tol_V, and
+    the two edges meet there by the shape's own topology; the segment adds no boundary
+    outside that ball, so the closed domain is the face the BRep defines, ambiguous only
+    inside the ball (area at most about pi tol_V^2 per gap). On a collapsed side of the
+    surface (S constant along the segment: a pole, a cone apex) g is the vertex point itself.
+    Returns (segments, notes); raises InputError (the error's message and the reason)
+    when some open end has no such closure.
+    """
+    from .surface_eval import SurfaceEvaluator
+
+    def fail(reason):
+        raise InputError("%s; no exact closure: %s" % (error, reason)) from error
+
+    ends = error.ends
+    groups = []  # [vertex, [end indices]]
+    for i in (int(k) for k in error.open_ends):
+        edge = edges[i // 2]
+        vertex = edge.firstVertex(False) if i % 2 == 0 else edge.lastVertex(False)
+        for group in groups:
+            if group[0].isSame(vertex):
+                group[1].append(i)
+                break
+        else:
+            groups.append([vertex, [i]])
+    evaluator = SurfaceEvaluator.for_face(face)
+    segments, notes = [], []
+    t = np.linspace(0.0, 1.0, GAP_SAMPLES)
+    h = t[1] - t[0]
+    for vertex, idx in groups:
+        V = np.array(_xyz(vertex.Point))
+        tol = max(float(vertex.Tolerance), PRECISION_CONFUSION)
+        if len(idx) % 2:
+            fail("%d open p-curve end(s) at the vertex (%.6g, %.6g, %.6g), none of another "
+                 "edge there to join" % ((len(idx),) + tuple(V)))
+        idx = list(idx)
+        while idx:
+            pairs = [(float(np.linalg.norm(ends[a] - ends[b])), a, b)
+                     for j, a in enumerate(idx) for b in idx[j + 1:]]
+            _, a, b = min(pairs)
+            idx.remove(a), idx.remove(b)
+            p, q = ends[a], ends[b]
+            d = q - p
+            uv = p + t[:, None] * d
+            S, _, _, Suu, Suv, Svv = evaluator.derivatives(uv[:, 0], uv[:, 1])
+            g2 = d[0] ** 2 * Suu + 2.0 * d[0] * d[1] * Suv + d[1] ** 2 * Svv
+            dev = float(np.linalg.norm(S - V, axis=1).max())
+            bound = dev + h * h / 8.0 * float(np.linalg.norm(g2, axis=1).max())
+            if not bound <= tol:
+                fail("the parameter segment from (%.6g, %.6g) to (%.6g, %.6g) leaves the vertex "
+                     "(%.6g, %.6g, %.6g) by %.3g, more than its tolerance %.3g"
+                     % (tuple(p) + tuple(q) + tuple(V) + (bound, tol)))
+            segments.append(NurbsCurve2D.line(p, q))
+            kind = "collapsed side" if bound <= PRECISION_CONFUSION else "gap"
+            notes.append("%s closed at vertex (%.6g, %.6g, %.6g): parameter segment (%.6g, %.6g)-"
+                         "(%.6g, %.6g), 3-D deviation %.3g <= vertex tolerance %.3g"
+                         % ((kind,) + tuple(V) + tuple(p) + tuple(q) + (bound, tol)))
+    return segments, notes
+
+
+# ---------------------------------------------------------------------------------------------
 # the domain
 
 
 class TrimmedDomain:
     """The trimmed parameter domain of a face, from its trim curves (see module docstring).
 
-    Attributes: curves (list of Curve2D), u_range, v_range (2-tuples), is_rectangle (True
+    Attributes: curves (list of Curve2D), repairs (list of str: exact repairs made by
+    :meth:`from_face`, empty when none), u_range, v_range (2-tuples), is_rectangle (True
     when Omega is its bounding rectangle, the untrimmed natural face), slabs (list of
     (u0, u1, lo_pieces (k,) int, hi_pieces (k,) int)), and per monotone piece the arrays
     piece_u_lo, piece_u_hi (snapped u range), piece_const_v (v of a horizontal piece, else
@@ -318,8 +529,9 @@ class TrimmedDomain:
     all such ends).
     """
 
-    def __init__(self, curves):
+    def __init__(self, curves, repairs=()):
         self.curves = list(curves)
+        self.repairs = list(repairs)
         if not self.curves:
             raise InputError("trimmed domain: no trim curves")
         self._build_samples()
@@ -360,21 +572,36 @@ class TrimmedDomain:
         """Domain of a Part.Face from the p-curves of all edges of all its wires.
 
         Wire children are iterated (not ``Wire.Edges``, which lists a seam edge once), so a
-        seam contributes the p-curves of both its occurrences. Raises InputError when an
-        edge has no p-curve on the face.
+        seam contributes the p-curves of both its occurrences. Exact repairs, each noted
+        in ``repairs``: on a plane, a missing p-curve or one off its edge's 3-D curve is
+        replaced by the 3-D curve's exact image (:func:`plane_pcurve`); loops left open at
+        a vertex are closed by parameter segments that stay in the vertex's tolerance ball
+        (:func:`close_gaps`; a collapsed side of the surface is such a segment). Raises
+        InputError when an edge has no p-curve (off a plane) or the loops stay open.
         """
-        curves = []
+        frame = plane_frame(face)
+        curves, edges, repairs = [], [], []
         for wire in face.Wires:
             for edge in wire.childShapes():
                 if edge.ShapeType != "Edge":
                     continue
                 pc = face.curveOnSurface(edge)
-                if pc is None:
+                if frame is not None:
+                    curve, note = plane_pcurve(edge, pc, frame)
+                    if note:
+                        repairs.append("edge %d: %s" % (len(curves), note))
+                elif pc is None:
                     raise InputError("face edge has no curve in the face's parameter space "
                                      "(p-curve); repair the shape (e.g. Part's shape fixer)")
-                geom, s0, s1 = pc
-                curves.append(curve_from_geom2d(geom, s0, s1))
-        domain = cls(curves)
+                else:
+                    curve = curve_from_geom2d(*pc)
+                curves.append(curve)
+                edges.append(edge)
+        try:
+            domain = cls(curves, repairs)
+        except OpenTrimLoops as exc:
+            segments, notes = close_gaps(face, curves, edges, exc)
+            domain = cls(curves + segments, repairs + notes)
         domain.face_parameter_range = tuple(face.ParameterRange)
         return domain
 
@@ -402,23 +629,30 @@ class TrimmedDomain:
         gap = dist[np.arange(2 * n), partner]
         if np.any(gap > CLOSURE_RTOL * self._scale):
             i = int(np.argmax(gap))
-            raise InputError("trim loops are not closed: the end (%.6g, %.6g) of p-curve %d has "
-                             "no other curve end within %.3g in parameter space"
-                             % (ends[i, 0], ends[i, 1], i // 2, CLOSURE_RTOL * self._scale))
+            raise OpenTrimLoops("trim loops are not closed: the end (%.6g, %.6g) of p-curve %d has "
+                                "no other curve end within %.3g in parameter space"
+                                % (ends[i, 0], ends[i, 1], i // 2, CLOSURE_RTOL * self._scale),
+                                ends, np.nonzero(gap > CLOSURE_RTOL * self._scale)[0],
+                                CLOSURE_RTOL * self._scale)
         gap_u = np.abs(ends[:, 0] - ends[partner, 0])
         self.snap_tol = max(SNAP_RTOL * self._scale, 2.0 * float(gap_u.max()))
 
     def _extrema(self, ci, comp):
-        """Parameters of curve ci where component comp has a local extremum (sign change of
-        its derivative between samples, refined on the derivative)."""
+        """Parameters of curve ci where component comp has a local extremum: where its
+        derivative changes sign between consecutive nonzero samples, refined on the
+        derivative when the samples are adjacent, else the first sample of the exactly
+        zero run between them (a sample on the extremum)."""
         c, s, d = self.curves[ci], self._s[ci], self._d[ci][:, comp]
-        sc = np.sign(d)
-        k = np.nonzero((sc[:-1] * sc[1:] < 0))[0]
+        nz = np.nonzero(d)[0]
+        flip = np.nonzero(np.sign(d[nz[:-1]]) * np.sign(d[nz[1:]]) < 0)[0]
+        a, b = nz[flip], nz[flip + 1]
+        on_sample = s[a[b > a + 1] + 1]
+        k = a[b == a + 1]
         if k.size == 0:
-            return np.empty(0)
+            return on_sample
         xtol = 4e-16 * (abs(c.s0) + abs(c.s1)) + 1e-15 * (c.s1 - c.s0)
-        return solve_bracketed(lambda x, i: c.derivative(x)[:, comp], s[k], s[k + 1], d[k],
-                               d[k + 1], xtol)
+        return np.concatenate((on_sample, solve_bracketed(
+            lambda x, i: c.derivative(x)[:, comp], s[k], s[k + 1], d[k], d[k + 1], xtol)))
 
     def _build_pieces(self):
         pc, pa, pb = [], [], []
