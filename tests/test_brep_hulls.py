@@ -40,15 +40,18 @@ def test_dtmb5415_hull_faces_converged_improper_integral():
     assert r.provenance["concentrated_faces"] == [] or r.provenance["concentrated_faces"][0]["face"] == 1
 
 
-def test_catamaran_unclosed_trim_loops_use_the_edge_polygon():
-    """Face6 of the catamaran STEP has p-curves whose ends do not meet: the face is
-    integrated over the polygon of its 3-D edges and the records say so."""
+def test_catamaran_trim_gap_within_vertex_tolerance_is_closed_exactly():
+    """Face6 (the deck plane) of the catamaran STEP: two B-spline edges stop 7.7e-3 mm short
+    of their stern vertices, whose tolerance (7.7e-3 mm) covers the gap; the loop is closed
+    by the parameter segment inside that tolerance (exact: the topology says the edges meet
+    there), recorded as a repair, and the face is integrated on its exact p-curves."""
     from hullprod_wb import assess
     r = assess(shared_hull("brep/catamaran_demihull.step"), faces=[6], with_fields=False)
     row = r.provenance["faces"][0]
-    assert row["domain"].startswith("polygon from the 3-D edges")
+    assert row["domain"].startswith("exact p-curves (repaired: ")
+    assert len(row["repairs"]) == 2 and all("vertex" in x for x in row["repairs"])
     # a plane: flat everywhere, and its area agrees with OpenCascade's (good to ~1e-4)
     assert r.signature["I_D"] == 0.0 and r.signature["a_C"]["flat"] == 1.0
     assert r.integrals.represented_area == pytest.approx(r.provenance["occ_area"], rel=1e-4)
-    assert r.validity["a_flat"].status.value == "CAUTION"
-    assert "do not close" in r.validity["I_D"].reason
+    assert {v.status.value for v in r.validity.values()} == {"VALID"}
+    assert r.validity["a_flat"].evidence["repaired_domains"] == [6]

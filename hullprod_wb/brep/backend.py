@@ -262,7 +262,9 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
             "points": int(f.quad.n_points),
             "depth_reached": int(r.depth_reached), "trimmed": not f.domain.is_rectangle,
             "domain": ("polygon from the 3-D edges (%s)" % f.domain.fallback) if f.domain.fallback
-            else "exact p-curves",
+            else "exact p-curves" + (" (repaired: %s)" % "; ".join(f.domain.repairs)
+                                     if getattr(f.domain, "repairs", None) else ""),
+            "repairs": list(getattr(f.domain, "repairs", [])),
             "degenerate": f.degenerate.to_dict(),
         })
     return rows
@@ -285,6 +287,8 @@ def metric_validity(faces, integrals, values, opts, history):
     verdicts = [a["verdict"] for a in audits]
     deg_count = sum(len(f.degenerate.points) + len(f.degenerate.sides) for f in faces)
     fallback = [f.number for f in faces if getattr(f.domain, "fallback", None)]
+    # exact repairs of trim loops (gaps within a vertex's tolerance): no CAUTION, but evidence
+    repaired = [f.number for f in faces if getattr(f.domain, "repairs", None)]
     rep, valid = integrals.represented_area, integrals.valid_area
     out = {}
     for m in METRICS:
@@ -297,6 +301,8 @@ def metric_validity(faces, integrals, values, opts, history):
                     "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
                     "depth_limit": opts["max_depth"], "recheck_depth": opts["max_depth"] + 1,
                     "rechecked_faces": [f.number for f in faces if f.quad.rechecked]}
+        if repaired:
+            evidence["repaired_domains"] = repaired
         is_K = den == "A_valid"
         if valid <= 0:
             rec = MetricValidity(Status.NOT_EVALUATED, None, "no regular surface area to evaluate",
