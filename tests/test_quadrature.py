@@ -475,3 +475,54 @@ def test_refinement_history_ends_at_the_result():
         assert h[-1][q] == pytest.approx(r.values[q], rel=1e-12, abs=1e-15)
     errs = [abs(x["int_abs_K"] - r.values["int_abs_K"]) for x in h]
     assert errs[-1] < errs[0]
+
+
+def test_embedded_rule_is_exact_to_degree_n_minus_2():
+    from hullprod_wb.brep.quadrature import _embedded_weights, _gauss
+    for n in (3, 5, 8):
+        x, _ = _gauss(n)
+        w = _embedded_weights(x)
+        for k in range(n - 1):  # int_0^1 x^k = 1 / (k + 1)
+            assert w @ x ** k == pytest.approx(1.0 / (k + 1), rel=1e-13)
+        assert abs(w @ x ** (n - 1) - 1.0 / n) > 1e-8  # and not beyond (it is the lower rule)
+
+
+def test_mixed_cells_on_interpolants_agree_with_field_lines(monkeypatch):
+    """The lines of mixed cells run on a local tensor interpolant of the cell's samples when
+    it is accurate enough; forcing the field everywhere (share 0) gives the same integrals
+    to well within the tolerance, with several times more field evaluations."""
+    import hullprod_wb.brep.quadrature as quadrature
+    c, R = np.array([0.53, 0.47]), 0.3
+    f = field_of(lambda u, v: 1.0 + 0.2 * u * v, lambda u, v: (u - c[0]) ** 2 + (v - c[1]) ** 2 - R * R,
+                 lambda u, v: 0.5 + 0.0 * u)
+    d = TrimmedDomain.rectangle(0, 1, 0, 1)
+    fast = integrate(d, f, TAU_H, TAU_K)
+    monkeypatch.setattr(quadrature, "SURROGATE_SHARE", 0.0)
+    slow = integrate(d, f, TAU_H, TAU_K)
+    for q in QUANTITIES:
+        # both converged at rtol 1e-4; their difference is far below it
+        assert fast.values[q] == pytest.approx(slow.values[q], rel=1e-7, abs=1e-9), q
+    assert fast.all_converged and slow.all_converged
+    assert fast.n_points * 3 < slow.n_points
+
+
+def test_patch_rule_bounds_its_error():
+    from hullprod_wb.brep.quadrature import patch_rule
+    d = TrimmedDomain.disc((0.0, 0.0), 1.0)
+    f = field_of(lambda u, v: np.exp(u) * (1 + v * v), lambda u, v: 1.0 + 0.0 * u)
+    # int over the unit disc of e^u (1 + v^2), by scipy in polar coordinates
+    from scipy import integrate as si
+    exact = si.dblquad(lambda r, t: np.exp(r * np.cos(t)) * (1 + (r * np.sin(t)) ** 2) * r,
+                       0, 2 * np.pi, 0, 1, epsabs=1e-13, epsrel=1e-13)[0]
+    cuts = np.linspace(-1.0, 1.0, 9)[1:-1]
+    errors = []
+    for order, u_breaks in ((5, ()), (8, ()), (8, cuts), (12, cuts)):
+        vals, bound = patch_rule(d, f, order, u_breaks)
+        err = abs(vals["A"] - exact)
+        assert err <= bound["A"], (order, len(u_breaks))  # the embedded bound holds
+        errors.append(err)
+    # and the rule converges with order and with smaller patches (measured 1e-2, 6e-6,
+    # 3e-13, 0)
+    assert errors[1] < 1e-3 * errors[0] and errors[2] < 1e-10 * exact and errors[3] < 1e-12 * exact
+    with pytest.raises(InputError):
+        patch_rule(d, f, 2)
