@@ -76,6 +76,10 @@ ZERO_SCALE = 1e-2
 #: The quadtree's own acceptance uses this fraction of the tolerances of the smooth
 #: quantities (cheap to refine; their error then stays well inside rtol).
 TREE_SAFETY = 1e-2
+#: Cells accepted on their own Gauss sums may use this fraction of the tolerances: their
+#: estimate is the error of the embedded lower-degree rule (degree 2o - 1 against o - 2 per
+#: direction), itself a large overestimate of the Gauss rule's error on smooth integrands.
+OWN_SAFETY = 0.1
 #: Part of the remaining error budget a level may use up by accepting cells.
 ACCEPT_FRACTION = 0.5
 #: Widening of a cell's sampled K (H) range when testing whether it meets a level.
@@ -843,7 +847,7 @@ class _Integrator:
     def _accept_own(self):
         """Accept active cells on their own Gauss sums, without children: cells that meet
         no class boundary (not mixed), all samples regular, whose embedded error estimates
-        err_e fit greedily in TREE_SAFETY of the remaining budget of every quantity (the
+        err_e fit greedily in OWN_SAFETY of the remaining budget of every quantity (the
         class areas' errors: the area's, shared by class fraction, as for children sums)."""
         a = self.active
         n = a["pid"].size
@@ -854,7 +858,7 @@ class _Integrator:
         frac = a["Q"][:, 5:] / np.maximum(a["Q"][:, :1], 1e-300)
         err[:, 5:] = err[:, :1] * np.abs(frac)
         Qtot = sum((p["Q"].sum(0) for p in self.accepted), a["Q"].sum(0))
-        budget = TREE_SAFETY * (self._tolerance(Qtot) - self.err_acc)
+        budget = OWN_SAFETY * (self._tolerance(Qtot) - self.err_acc)
         ok = np.zeros(n, bool)
         ok[cand] = _greedy_accept(err[cand], budget)
         if not ok.any():
