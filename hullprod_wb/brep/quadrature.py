@@ -6,18 +6,17 @@ of the signature: represented area A = int J, valid area (regular points), int |
 int max(K,0) J, int max(-K,0) J over the valid points, and the four curvature-class areas
 of eq:curvature_classes.
 
-Geometry. u is cut at the domain's breakpoints, at the knot lines u_breaks and where the
-trim curves cross the knot lines v_breaks. In each slab every strip lo(u) <= v <= hi(u)
-(further cut at the v_breaks inside it) is a patch mapped from the unit square,
-    u = u(sigma),  v = lo(u) + t (hi(u) - lo(u)),   du dv = u'(sigma) (hi - lo) dsigma dt,
-with u(sigma) affine, or clustered like u - u0 ~ sigma^2 by a cosine map next to a slab
-end where a trim curve has a vertical tangent, so that strip widths ~ sqrt(u - u0) become
-smooth in sigma (a circle's strips become trigonometric polynomials). Integrands are thus
-smooth on each patch and Gauss-Legendre converges fast on the exact trimmed region.
+Geometry. The domain is cut into boundary-fitted patches mapped from the unit square
+(hullprod_wb.brep.patches: strips lo(u) <= v <= hi(u) between breakpoints, knot lines and the
+trim curves' crossings of the knot lines), on which the integrands are smooth, so that
+Gauss-Legendre converges fast on the exact trimmed region.
 
 Quadtree. Tensor Gauss-Legendre of the given order on cells of a quadtree over each patch;
-all cells of a level are evaluated in one field call. Error estimate of a cell: |Q(cell) -
-sum of Q over its 4 children| (coarse against fine resolution; it estimates the coarse
+all cells of a level are evaluated in one field call. A cell that meets no class boundary
+is accepted on its own Gauss sums when the difference to the embedded lower-degree rule on
+the same nodes (gauss_rules.embedded_weights) fits OWN_SAFETY of the budget; otherwise its
+four children are evaluated. Error estimate of a parent cell: |Q(cell) - sum of Q over its
+4 children| (coarse against fine resolution; it estimates the coarse
 rule's error, so it is conservative for the children's sum, which is what is kept). The
 tolerance of quantity q is tol_q = rtol max(|Q_q|, ZERO_SCALE s_q, reference_q), s_q = A
 for areas and tau_K A for K integrals. A level whose accepted plus new error estimates fit
@@ -31,9 +30,14 @@ every quantity against the whole budget left; the others are split, until max_de
 Mixed cells. The class indicators are discontinuous, and |K|, max(+-K, 0) have kinks on
 K = 0; Gauss sums across such curves converge only like the cell size (squared). A cell is
 mixed when its samples do not all have one class, or when the sampled range of K (or of H
-where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself, contains -tau_K, 0 or
-tau_K (or -+tau_H). For a parent cell with a mixed child the K integrals and class areas
-are line integrals over the parent:
+where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself, contains -tau_K or tau_K
+(or -+tau_H), or K changes sign in it. For a parent cell with a mixed child the K integrals
+and class areas are line integrals over the parent, taken on the tensor interpolant of J, K,
+H through its children's samples (hullprod_wb.brep.cell_interpolant) when the interpolant's
+error, measured at the parent's own nodes and propagated to each integral, is within
+SURROGATE_SHARE of the cell's budget (it then adds to the cell's error); a cell whose
+interpolant is not yet that accurate is split instead, and at the last level its lines run
+on the field itself:
 - on a line sigma = const, the crossings in t of K - tau_K, K + tau_K, H - tau_H, H + tau_H
   and K are bracketed between the samples ZS (and around extrema of one sign that get
   near zero between samples) and refined together (solve_bracketed, one field call per
@@ -46,8 +50,9 @@ are line integrals over the parent:
   differ; square-root ends, so those pieces get a clustered map), and the pieces are
   integrated by Gauss-Kronrod 3/7 (error |K7 - G3|), halving those whose error does not
   fit, at most class_max_depth times;
-- the quadtree's own children sums of the K integrals bound the line error estimate from
-  below where both disagree (a rough or singular integrand the lines do not resolve).
+- on lines of the field, the quadtree's own children sums of the K integrals bound the
+  line error estimate from below where both disagree (a rough or singular integrand the
+  lines do not resolve); an interpolant has passed the sharper check above.
 Islands of a level curve inside a cell that no sample sees are not resolved.
 """
 import time
@@ -59,6 +64,9 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.integrals import SurfaceIntegrals
 from ..core.thresholds import check_positive, classify
+from .cell_interpolant import SegmentField, cell_values, fit_interpolants, grid_matrices
+from .gauss_rules import WK, XK, embedded_weights, gauss_nodes, kronrod_error, piece_weights
+from .patches import Patches, cluster_map
 from .trimmed_domain import TrimmedDomain, solve_bracketed
 
 #: Names of the integrated quantities, in the order of the value arrays.
@@ -105,10 +113,8 @@ TANGENT_STEPS = 10
 STALL_RATIO = 0.45
 MAX_PIECES = 64
 #: A mixed cell's lines are taken on its local interpolant (see _Integrator._surrogates)
-#: when the interpolant's error estimate is within this share of the cell's budget; points
-#: per block of interpolant evaluations.
+#: when the interpolant's error estimate is within this share of the cell's budget.
 SURROGATE_SHARE = 0.1
-SURROGATE_CHUNK = 20000
 #: Number of candidate cells of largest |K| J kept for the singular-point audit.
 N_PEAKS = 10
 #: At most this many non-regular sample locations are kept.
@@ -218,175 +224,6 @@ class _Field:
         return np.where(bad, 0.0, J), K, H, reg
 
 
-def cluster_map(kind, x):
-    """Map of [0, 1] onto itself and its derivative, (same shapes as x).
-
-    kind 0: x; 1: 1 - cos(pi x / 2), clustered at 0 (c ~ x^2); 2: sin(pi x / 2), clustered
-    at 1; 3: (1 - cos(pi x)) / 2, clustered at both ends. A function with a square-root
-    end, f(c) ~ sqrt(c), becomes smooth in x; for a circle's strip width, trigonometric.
-    """
-    h = 0.5 * np.pi
-    c = np.select([kind == 0, kind == 1, kind == 2],
-                  [x, 1.0 - np.cos(h * x), np.sin(h * x)], 0.5 * (1.0 - np.cos(np.pi * x)))
-    dc = np.select([kind == 0, kind == 1, kind == 2],
-                   [np.ones_like(x), h * np.sin(h * x), h * np.cos(h * x)], h * np.sin(np.pi * x))
-    return c, dc
-
-
-class _Patches:
-    """Unit-square patches (sigma, t) of the trimmed domain (see module docstring).
-
-    Arrays (P,): u0, u1, umap (cluster_map kind: 1 clustered at u0, 2 at u1, 3 both), lo_piece,
-    hi_piece (piece index of the domain, -1 for a constant), lo_v, hi_v (the constants).
-    """
-
-    def __init__(self, domain, u_breaks, v_breaks):
-        self.domain = domain
-        tol = domain.snap_tol
-        ur = domain.u_range
-        vb = np.unique(np.asarray(v_breaks, dtype=float).ravel())
-        vb = vb[(vb > domain.v_range[0]) & (vb < domain.v_range[1])]
-        cuts = [domain.u_breakpoints(), np.asarray(u_breaks, dtype=float).ravel(),
-                domain.v_line_crossings(vb)]
-        cuts = np.unique(np.concatenate(cuts))
-        cuts = cuts[(cuts >= ur[0]) & (cuts <= ur[1])]
-        keep = np.concatenate(([True], np.diff(cuts) > tol))
-        cuts = cuts[keep]
-        dom_bp = domain.breakpoints
-        rows = []
-        for a, b in zip(cuts[:-1], cuts[1:]):
-            k = min(max(np.searchsorted(dom_bp, 0.5 * (a + b)) - 1, 0), len(domain.slabs) - 1)
-            _, _, lo_p, hi_p = domain.slabs[k]
-            if lo_p.size == 0:
-                continue
-            # an end is clustered when a bounding piece has a vertical tangent there
-            act = np.concatenate((lo_p, hi_p))
-            ta = np.any(domain.piece_turns[act, 0] & (np.abs(domain.piece_u_lo[act] - a) <= tol))
-            tb = np.any(domain.piece_turns[act, 1] & (np.abs(domain.piece_u_hi[act] - b) <= tol))
-            um = np.array([0.5 * (a + b)])
-            lo_m = np.array([domain.piece_v(p, um)[0] for p in lo_p])
-            hi_m = np.array([domain.piece_v(p, um)[0] for p in hi_p])
-            pieces = []
-            for lp, hp, lv, hv in zip(lo_p, hi_p, lo_m, hi_m):
-                inner = vb[(vb > lv + tol) & (vb < hv - tol)]
-                bnd_p = np.concatenate(([lp], np.full(inner.size, -1), [hp]))
-                bnd_v = np.concatenate(([np.nan], inner, [np.nan]))
-                for j in range(bnd_p.size - 1):
-                    pieces.append((bnd_p[j], bnd_v[j], bnd_p[j + 1], bnd_v[j + 1]))
-            kind = (1 if ta else 0) + (2 if tb else 0)
-            for (lp, lv, hp, hv) in pieces:
-                rows.append((a, b, kind, lp, lv, hp, hv))
-        if not rows:
-            raise InputError("trimmed domain has no area to integrate over")
-        r = np.array(rows, dtype=float)
-        self.u0, self.u1 = r[:, 0], r[:, 1]
-        self.umap = r[:, 2].astype(int)
-        self.lo_piece, self.hi_piece = r[:, 3].astype(int), r[:, 5].astype(int)
-        cv = domain.piece_const_v
-        self.lo_v = np.where(self.lo_piece >= 0, cv[np.maximum(self.lo_piece, 0)], r[:, 4])
-        self.hi_v = np.where(self.hi_piece >= 0, cv[np.maximum(self.hi_piece, 0)], r[:, 6])
-        # a horizontal piece is a constant boundary too
-        self.lo_piece = np.where(np.isnan(self.lo_v), self.lo_piece, -1)
-        self.hi_piece = np.where(np.isnan(self.hi_v), self.hi_piece, -1)
-
-    @classmethod
-    def of(cls, domain, u_breaks, v_breaks):
-        """The patches of domain cut at the given breaks, built once per domain and breaks
-        (kept on the domain object)."""
-        ub = np.unique(np.asarray(u_breaks, dtype=float).ravel())
-        vb = np.unique(np.asarray(v_breaks, dtype=float).ravel())
-        key = (ub.tobytes(), vb.tobytes())
-        cache = domain.__dict__.setdefault("_patch_cache", {})
-        if key not in cache:
-            cache[key] = cls(domain, ub, vb)
-        return cache[key]
-
-    @property
-    def size(self):
-        return self.u0.size
-
-    def u_of_sigma(self, pid, sig):
-        """u and du/dsigma for patch ids pid and sigma in [0, 1] (same shapes), by
-        :func:`cluster_map` of the patch's kind over [u0, u1]."""
-        a, w = self.u0[pid], self.u1[pid] - self.u0[pid]
-        c, dc = cluster_map(self.umap[pid], sig)
-        return a + w * c, w * dc
-
-    def bounds(self, pid, u):
-        """lo(u), hi(u) of the patches pid at u (same shapes)."""
-        shape = u.shape
-        pid, u = pid.ravel(), u.ravel()
-        out = []
-        for piece, const in ((self.lo_piece, self.lo_v), (self.hi_piece, self.hi_v)):
-            p = piece[pid]
-            val = const[pid].copy()
-            for k in np.unique(p[p >= 0]):
-                sel = p == k
-                uu, back = np.unique(u[sel], return_inverse=True)  # lines shared by cells
-                val[sel] = self.domain.piece_v(k, uu)[back]
-            out.append(val.reshape(shape))
-        return out[0], out[1]
-
-    def boxes(self, pid, s0, s1, t0, t1):
-        """(n, 4) [u_min, u_max, v_min, v_max] of (sigma, t) cells (v from the cell's u ends)."""
-        sig = np.stack((s0, s1), 1)
-        P = np.stack((pid, pid), 1)
-        u, _ = self.u_of_sigma(P, sig)
-        lo, hi = self.bounds(P, u)
-        v0 = lo + t0[:, None] * (hi - lo)
-        v1 = lo + t1[:, None] * (hi - lo)
-        vv = np.concatenate((v0, v1), 1)
-        return np.stack((u.min(1), u.max(1), vv.min(1), vv.max(1)), 1)
-
-
-def _embedded_weights(x):
-    """Weights (n,) on the Gauss nodes x (n,) of [0, 1] of the interpolatory rule on all
-    of them but the middle one (n odd; for n even, the one left of the middle), exact to
-    degree n - 2, with a zero weight on the dropped node: the embedded lower-order rule whose
-    difference to the Gauss rule bounds its error. None for n < 3."""
-    n = x.size
-    if n < 3:
-        return None
-    keep = np.ones(n, bool)
-    keep[(n - 1) // 2] = False
-    xs = x[keep]
-    k = np.arange(n - 1)
-    moments = 1.0 / (k + 1)  # int_0^1 x^k
-    w = np.zeros(n)
-    w[keep] = np.linalg.solve(np.vander(xs, n - 1, increasing=True).T, moments)
-    return w
-
-
-def _gauss(order):
-    """Gauss-Legendre nodes and weights on [0, 1], (order,) each."""
-    x, w = np.polynomial.legendre.leggauss(order)
-    return 0.5 * (x + 1.0), 0.5 * w
-
-
-def _symmetric(x_pos):
-    """Nodes of [-1, 1] (sorted) from their non-negative half."""
-    x_pos = np.asarray(x_pos, dtype=float)
-    return np.sort(np.concatenate((-x_pos[x_pos > 0.0], x_pos)))
-
-
-def _kronrod(x_pos, gauss_pos):
-    """Gauss-Kronrod rule on [0, 1] from the non-negative nodes x_pos of [-1, 1], of which
-    gauss_pos are the Gauss nodes: nodes (m,), Kronrod weights (m,) solving the moment
-    equations of the nodes, Gauss weights (m,) (zero at the Kronrod-only nodes)."""
-    x = _symmetric(x_pos)
-    m = x.size
-    k = np.arange(m)
-    moments = (1.0 - (-1.0) ** (k + 1)) / (k + 1)
-    wk = np.linalg.solve(np.vander(x, m, increasing=True).T, moments)
-    gx = _symmetric(gauss_pos)
-    wg = np.zeros(m)
-    wg[np.searchsorted(x, gx - 1e-12)] = np.polynomial.legendre.leggauss(gx.size)[1]
-    return 0.5 * (x + 1.0), 0.5 * wk, 0.5 * wg
-
-
-#: Gauss-Kronrod 3/7 (exact to degree 11) in sigma along the lines of a piece.
-XK, WK, WG = _kronrod([0.0, 0.4342437493468026, 0.7745966692414834, 0.9604912687080202],
-                      [0.0, 0.7745966692414834])
 #: Lines of a piece in its parameter: next to each end (for tangency detection only) and
 #: at the Kronrod nodes.
 EDGE_XI = 1e-5
@@ -402,25 +239,9 @@ ZS = np.concatenate(([INSIDE], XK, [1.0 - INSIDE]))
 SHORT_PIECE = 1e-3
 
 
-def _piece_weights(nodes):
-    """(m+1, m) matrix M: for a piece [za, zb] of [0, 1], 0.5 (P(2 zb - 1) - P(2 za - 1)) M
-    with P the Legendre-Vandermonde rows of degree m gives the weights (m,) of the samples
-    at nodes (m,) that integrate their interpolating polynomial over the piece."""
-    m = nodes.size
-    V = np.polynomial.legendre.legvander(2.0 * nodes - 1.0, m - 1)
-    A = np.stack([np.polynomial.legendre.legint(np.eye(m)[j]) for j in range(m)], 1)
-    return A @ np.linalg.inv(V)
+M_HI = piece_weights(ZS)
+M_LO = piece_weights(ZS[1:-1])
 
-
-M_HI = _piece_weights(ZS)
-M_LO = _piece_weights(ZS[1:-1])
-
-
-def _kronrod_error(F, Fk):
-    """Error estimate |K7 - G3| (n, q) of Gauss-Kronrod 3/7 sums Fk = sum_k WK_k F_k from
-    the node values F (n, 7, q) (on [0, 1], Jacobians included): the error of the nested
-    3-point rule, a safe bound for the 7-point one."""
-    return np.abs(Fk - np.einsum("nkq,k->nq", F, WG))
 
 
 def _greedy_accept(err, budget, group=None):
@@ -560,70 +381,6 @@ def _cat(parts):
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-class _SegmentField:
-    """J, K, H, regular along segments of mixed cells, for _Integrator's line code.
-
-    A segment is a line sigma = fixed (axis "t": its parameter x is t) or t = fixed (axis
-    "sigma": x is sigma) of the mixed cell cell (indices into the integrator's _pc_cells).
-    Segments of cells that use their interpolant are evaluated on its restriction to the
-    segment (a Legendre series in x, computed once per segment); the others by the field.
-    For axis "t", u, lo, width (n,) of the lines may be given (else computed)."""
-
-    def __init__(self, it, cell, fixed, axis, u=None, lo=None, width=None):
-        self.it, self.axis = it, axis
-        self.cell, self.fixed = np.asarray(cell), np.asarray(fixed, dtype=float)
-        cells, sur = it._pc_cells, it._sur
-        self.use = sur["use"][self.cell]
-        deg = 2 * it.order - 1
-        c = self.cell
-        if axis == "t":
-            a, b = cells["s0"][c], cells["s1"][c]
-            self.x0, self.x1 = cells["t0"][c], cells["t1"][c]
-        else:
-            a, b = cells["t0"][c], cells["t1"][c]
-            self.x0, self.x1 = cells["s0"][c], cells["s1"][c]
-        i = np.nonzero(self.use)[0]
-        self.coef = np.zeros((c.size, 3, deg + 1))
-        if i.size:
-            P = np.polynomial.legendre.legvander(2.0 * (self.fixed[i] - a[i]) / (b[i] - a[i]) - 1.0, deg)
-            C = sur["C"][c[i]]
-            if axis != "t":
-                C = np.swapaxes(C, 2, 3)
-            self.coef[i] = np.matmul(P[:, None, None, :], C)[:, :, 0, :]
-        if axis == "t" and u is None and (~self.use).any():
-            pid = cells["pid"][c]
-            u, _ = it.patches.u_of_sigma(pid, self.fixed)
-            lo, hi = it.patches.bounds(pid, u)
-            width = hi - lo
-        self.u, self.lo, self.width = u, lo, width
-
-    def __call__(self, x, seg):
-        x, seg = np.asarray(x, dtype=float).ravel(), np.asarray(seg).ravel()
-        n = x.size
-        J, K, H = np.empty(n), np.empty(n), np.empty(n)
-        reg = np.ones(n, bool)
-        use = self.use[seg]
-        i = np.nonzero(use)[0]
-        if i.size:
-            s = seg[i]
-            z = 2.0 * (x[i] - self.x0[s]) / (self.x1[s] - self.x0[s]) - 1.0
-            P = np.polynomial.legendre.legvander(z, self.coef.shape[2] - 1)
-            J[i], K[i], H[i] = np.einsum("mk,mfk->fm", P, self.coef[s])
-        i = np.nonzero(~use)[0]
-        if i.size:
-            s = seg[i]
-            it = self.it
-            if self.axis == "t":
-                u, v = self.u[s], self.lo[s] + x[i] * self.width[s]
-            else:
-                pid = it._pc_cells["pid"][self.cell[s]]
-                u, _ = it.patches.u_of_sigma(pid, x[i])
-                lo, hi = it.patches.bounds(pid, u)
-                v = lo + self.fixed[s] * (hi - lo)
-            J[i], K[i], H[i], reg[i] = it.f(u, v)
-        return J, K, H, reg
-
-
 class _Integrator:
     """State of one adaptive integration (quadtree over the patches, lines in mixed cells).
 
@@ -639,13 +396,10 @@ class _Integrator:
         self.lines = True
         self.progress = progress
         self.reference = np.zeros(NQ)  # see integrate(reference=...)
-        self.x, self.w = _gauss(order)
-        self.w_embedded = _embedded_weights(self.x)
-        grid = np.concatenate((0.5 * self.x, 0.5 + 0.5 * self.x))  # children's nodes in a parent
-        LV = np.polynomial.legendre.legvander
-        self._grid_inverse = np.linalg.inv(LV(2.0 * grid - 1.0, 2 * order - 1))
-        self._parent_vander = LV(2.0 * self.x - 1.0, 2 * order - 1)
-        self.patches = _Patches.of(domain, u_breaks, v_breaks)
+        self.x, self.w = gauss_nodes(order)
+        self.w_embedded = embedded_weights(self.x)
+        self._grid_inverse, self._parent_vander = grid_matrices(self.x)
+        self.patches = Patches.of(domain, u_breaks, v_breaks)
         P = self.patches.size
         self.nonregular = []
         self.n_nonregular = 0
@@ -684,7 +438,7 @@ class _Integrator:
         """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1).
 
         Returns dict Q (n, 9), mixed (n,) bool, peak (n, 3) (u, v, |K| J at the sample of
-        largest |K| J), err_e (n, 9) |Q - Q_embedded| (_embedded_weights), pmeas (n,)
+        largest |K| J), err_e (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights), pmeas (n,)
         parameter area, and the samples sJ, sK, sH, sreg (n, o, o)
         (index [cell, sigma node, t node])."""
         x, w, n = self.x, self.w, self.order
@@ -888,11 +642,8 @@ class _Integrator:
         their children's samples, and whether each is accurate enough to stand for the field
         on its lines.
 
-        The four children's o x o Gauss nodes form a 2o x 2o tensor grid of the parent; the
-        interpolant is the tensor Legendre series of degree 2o - 1 through it (coefficients
-        C (m, 3, 2o, 2o) in the parent's local coordinates, C = V^-1 F V^-T). Its error is
-        measured at the parent's own o x o Gauss nodes, which are not among the grid nodes:
-        d_f = max |interpolant - f| there. Error of the line integrals taken on the
+        Interpolants and their errors d_f = max |interpolant - f| at the parent's own nodes
+        (cell_interpolant.fit_interpolants). Error of the line integrals taken on the
         interpolant: 2 P max |d(K J)| for the K integrals (P: the cell's parameter measure)
         and, for each class area, A 2 d_g / range_g summed over the class's bounding levels g
         (K = tau_K: elliptic against flat or single; K = -tau_K: saddle against them; H = +-tau_H
@@ -903,27 +654,10 @@ class _Integrator:
         (m, 7); the errors are then part of its line error estimate.
 
         Returns dict C (m, 3, 2o, 2o), use (m,) bool, err (m, 7)."""
-        o = self.order
         idx = np.nonzero(sel)[0]
         m = idx.size
-        VI = self._grid_inverse
-        F = np.empty((m, 3, 2 * o, 2 * o))
-        for f, key in enumerate(("sJ", "sK", "sH")):
-            c = children[key].reshape(-1, 4, o, o)[idx]
-            F[:, f, :o, :o], F[:, f, o:, :o] = c[:, 0], c[:, 1]
-            F[:, f, :o, o:], F[:, f, o:, o:] = c[:, 2], c[:, 3]
-        reg = children["sreg"].reshape(-1, 4 * o * o)[idx].all(1) & parent["sreg"][idx].reshape(m, -1).all(1)
-        reg &= np.isfinite(F).reshape(m, -1).all(1)
-        C = VI @ np.where(np.isfinite(F), F, 0.0) @ VI.T
-        Vp = self._parent_vander
-        S = Vp @ C @ Vp.T
-        P = np.stack([parent[k][idx] for k in ("sJ", "sK", "sH")], 1)
-        with np.errstate(invalid="ignore"):
-            d = np.abs(S - P).reshape(m, 3, -1).max(2)
-            dKJ = np.abs(S[:, 1] * S[:, 0] - P[:, 1] * P[:, 0]).reshape(m, -1).max(1)
-        reg &= np.isfinite(d).all(1) & np.isfinite(dKJ)
-        vals = np.concatenate((F.reshape(m, 3, -1), P.reshape(m, 3, -1)), 2)
-        lo, hi = vals.min(2), vals.max(2)
+        fit = fit_interpolants(parent, children, idx, self._grid_inverse, self._parent_vander)
+        d, dKJ, lo, hi, reg = (fit[k] for k in ("d", "dKJ", "lo", "hi", "reg"))
         tk, th = self.tau_K, self.tau_H
 
         def band(f, lev):
@@ -951,7 +685,13 @@ class _Integrator:
         err[:, 3:] += np.abs(units["Q"][:, N_SMOOTH:]) * rel_J[:, None]
         err = np.where(reg[:, None], err, np.inf)
         use = np.all(err <= SURROGATE_SHARE * budget, 1)
-        return dict(C=C, use=use, err=np.where(use[:, None], err, 0.0))
+        return dict(C=fit["C"], use=use, err=np.where(use[:, None], err, 0.0))
+
+    def _segments_t(self, cell, sig, u, lo, width):
+        """SegmentField of the lines sigma = sig (L,) of the mixed cells cell (L,) (u, lo,
+        width (L,): the lines' u and strip bounds, for the field where no interpolant is used)."""
+        return SegmentField(self._sur["C"], self._sur["use"], self._pc_cells, cell, sig, "t",
+                            lambda x, i: self.f(u[i], lo[i] + x * width[i]))
 
     def _cell_field(self, cell, sig, t):
         """J, K, H, regular (m,) at patch coordinates (sig, t) (m,) of the mixed cells cell
@@ -964,18 +704,7 @@ class _Integrator:
         use = sur["use"][cell]
         i = np.nonzero(use)[0]
         if i.size:
-            c = cell[i]
-            xi = (sig[i] - cells["s0"][c]) / (cells["s1"][c] - cells["s0"][c])
-            eta = (t[i] - cells["t0"][c]) / (cells["t1"][c] - cells["t0"][c])
-            deg = 2 * self.order - 1
-            PX = np.polynomial.legendre.legvander(2.0 * xi - 1.0, deg)
-            PE = np.polynomial.legendre.legvander(2.0 * eta - 1.0, deg)
-            out = np.empty((i.size, 3))
-            for a in range(0, i.size, SURROGATE_CHUNK):
-                b = slice(a, a + SURROGATE_CHUNK)
-                row = np.matmul(PX[b, None, None, :], sur["C"][c[b]])[:, :, 0, :]
-                out[b] = (row * PE[b, None, :]).sum(2)
-            J[i], K[i], H[i] = out.T
+            J[i], K[i], H[i] = cell_values(sur["C"], cells, cell[i], sig[i], t[i])
         i = np.nonzero(~use)[0]
         if i.size:
             pid = cells["pid"][cell[i]]
@@ -990,7 +719,7 @@ class _Integrator:
         """Zeros of the five level functions along segments x in [x0, x1] (n,).
 
         evalf(x, i) -> (J, K, H, regular) (m,) each, at parameters x (m,) of segments i (m,)
-        (a _SegmentField).
+        (a SegmentField).
         Brackets: sign changes between the samples at ZS, and, where three samples of one
         sign dip towards zero and their parabola's vertex gets within DIP_FRACTION of zero,
         the two sides of the extremum (_parabolic_min) when it has the other sign. Levels of
@@ -1083,7 +812,7 @@ class _Integrator:
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
         width = hi - lo
-        evalf = _SegmentField(self, cell, sig, "t", u=u, lo=lo, width=width)
+        evalf = self._segments_t(cell, sig, u, lo, width)
         li, lq, roots, S = self._crossings(evalf, t0, t1)
         ar = np.arange(L)
         lid, a, b = _segments(np.concatenate((t0, roots, t1)), np.concatenate((ar, li, ar)))
@@ -1153,7 +882,7 @@ class _Integrator:
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
         width = hi - lo
-        evalf = _SegmentField(self, cell, sig, "t", u=u, lo=lo, width=width)
+        evalf = self._segments_t(cell, sig, u, lo, width)
         li, lq, roots, _ = self._crossings(evalf, t0, t1, refine=False)
         return _count_and_pairs(li, lq, roots, pid.size)
 
@@ -1188,7 +917,7 @@ class _Integrator:
         wt = (w * dc * du)[:, 1:-1, None]
         F = d["F"].reshape(n, m - 2, N_LINE_Q) * wt
         Fk = np.einsum("nkq,k->nq", F, WK)
-        es = _kronrod_error(F, Fk)
+        es = kronrod_error(F, Fk)
         et = np.einsum("nkq,k->nq", d["E"].reshape(n, m - 2, N_LINE_Q) * wt, WK)
         return Fk, es, et, sig, count, pair
 
@@ -1201,7 +930,14 @@ class _Integrator:
         h = INSIDE * (cells["t1"] - cells["t0"])
         tE = np.concatenate((cells["t0"] + h, cells["t1"] - h))
 
-        evalf = _SegmentField(self, E, tE, "sigma")
+        pe = pid[E]
+
+        def fallback(x, i):  # edge lines t = tE of the cells, sigma = x
+            u, _ = self.patches.u_of_sigma(pe[i], x)
+            lo, hi = self.patches.bounds(pe[i], u)
+            return self.f(u, lo + tE[i] * (hi - lo))
+
+        evalf = SegmentField(self._sur["C"], self._sur["use"], cells, E, tE, "sigma", fallback)
         li, _, roots, _ = self._crossings(evalf, cells["s0"][E], cells["s1"][E])
         return E[li], roots
 
@@ -1346,7 +1082,7 @@ def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
     """Integrals of QUANTITIES by the fixed tensor Gauss-Legendre rule of the given order
     (>= 3) on every boundary-fitted patch of the domain, without refinement (an independent
     check of the adaptive cubature; class quantities with unit thresholds), and the summed
-    embedded-rule differences (_embedded_weights) as a bound on their error: two dicts
+    embedded-rule differences (gauss_rules.embedded_weights) as a bound on their error: two dicts
     quantity -> float."""
     if not isinstance(domain, TrimmedDomain):
         raise InputError("patch_rule() needs a TrimmedDomain, got %s" % type(domain).__name__)

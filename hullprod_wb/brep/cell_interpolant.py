@@ -1,0 +1,121 @@
+"""Local tensor interpolants of J, K, H over mixed quadtree cells.
+
+The four children of a parent cell carry o x o Gauss-Legendre samples each; together they
+form a 2o x 2o tensor grid of the parent. The interpolant of a field f on the parent is the
+tensor Legendre series of degree 2o - 1 through that grid,
+    f(xi, eta) ~ sum_{a,b} C_ab P_a(2 xi - 1) P_b(2 eta - 1),   C = V^-1 F V^-T,
+in the parent's local coordinates (xi, eta) in [0, 1]^2 (V: the Legendre-Vandermonde matrix
+of the grid nodes; its condition number is 122 for o = 5). Its error is measured where it
+was not fitted, at the parent's own o x o Gauss nodes. The adaptive cubature
+(hullprod_wb.brep.quadrature) integrates a mixed cell on lines of its interpolant when that
+error is small enough, instead of evaluating the surface along the lines.
+"""
+import numpy as np
+
+#: Points per block of two-dimensional interpolant evaluations (bounds the memory of the
+#: gathered coefficients: block x 3 x (2o)^2 floats).
+CHUNK = 20000
+
+
+def grid_matrices(x):
+    """For Gauss nodes x (o,) on [0, 1]: the inverse (2o, 2o) of the Legendre-Vandermonde
+    matrix of the children's grid (x / 2, 1/2 + x / 2) and the Vandermonde rows (o, 2o) of the
+    parent's own nodes x."""
+    o = x.size
+    grid = np.concatenate((0.5 * x, 0.5 + 0.5 * x))
+    LV = np.polynomial.legendre.legvander
+    return np.linalg.inv(LV(2.0 * grid - 1.0, 2 * o - 1)), LV(2.0 * x - 1.0, 2 * o - 1)
+
+
+def fit_interpolants(parent, children, idx, grid_inverse, parent_vander):
+    """Interpolants of J, K, H over the cells parent[idx] from their children's samples.
+
+    parent, children: dicts with samples sJ, sK, sH (n, o, o) and sreg (n, o, o) bool, the
+    children of parent i at rows 4 i .. 4 i + 3 (sigma low/t low, sigma high/t low, sigma
+    low/t high, sigma high/t high). Returns dict C (m, 3, 2o, 2o); d (m, 3) max |interpolant
+    - f| at the parent's nodes for f = J, K, H; dKJ (m,) the same for K J; lo, hi (m, 3) the
+    range of the samples; reg (m,) all samples regular and finite."""
+    o = parent_vander.shape[0]
+    m = idx.size
+    F = np.empty((m, 3, 2 * o, 2 * o))
+    for f, key in enumerate(("sJ", "sK", "sH")):
+        c = children[key].reshape(-1, 4, o, o)[idx]
+        F[:, f, :o, :o], F[:, f, o:, :o] = c[:, 0], c[:, 1]
+        F[:, f, :o, o:], F[:, f, o:, o:] = c[:, 2], c[:, 3]
+    reg = children["sreg"].reshape(-1, 4 * o * o)[idx].all(1) & parent["sreg"][idx].reshape(m, -1).all(1)
+    reg &= np.isfinite(F).reshape(m, -1).all(1)
+    C = grid_inverse @ np.where(np.isfinite(F), F, 0.0) @ grid_inverse.T
+    S = parent_vander @ C @ parent_vander.T
+    P = np.stack([parent[k][idx] for k in ("sJ", "sK", "sH")], 1)
+    with np.errstate(invalid="ignore"):
+        d = np.abs(S - P).reshape(m, 3, -1).max(2)
+        dKJ = np.abs(S[:, 1] * S[:, 0] - P[:, 1] * P[:, 0]).reshape(m, -1).max(1)
+    reg &= np.isfinite(d).all(1) & np.isfinite(dKJ)
+    vals = np.concatenate((F.reshape(m, 3, -1), P.reshape(m, 3, -1)), 2)
+    return dict(C=C, d=d, dKJ=dKJ, lo=vals.min(2), hi=vals.max(2), reg=reg)
+
+
+def _local(x, a, b):
+    return 2.0 * (x - a) / (b - a) - 1.0
+
+
+def cell_values(C, cells, cell, sig, t):
+    """J, K, H (m,) of the interpolants C (n, 3, 2o, 2o) of cells (dict of (n,) s0, s1, t0,
+    t1) at patch coordinates (sig, t) (m,) of the cells cell (m,)."""
+    deg = C.shape[-1] - 1
+    PX = np.polynomial.legendre.legvander(_local(sig, cells["s0"][cell], cells["s1"][cell]), deg)
+    PE = np.polynomial.legendre.legvander(_local(t, cells["t0"][cell], cells["t1"][cell]), deg)
+    out = np.empty((cell.size, 3))
+    for a in range(0, cell.size, CHUNK):
+        b = slice(a, a + CHUNK)
+        row = np.matmul(PX[b, None, None, :], C[cell[b]])[:, :, 0, :]
+        out[b] = (row * PE[b, None, :]).sum(2)
+    return out.T
+
+
+class SegmentField:
+    """J, K, H, regular along segments of mixed cells, for the cubature's line code.
+
+    A segment is a line sigma = fixed (axis "t": its parameter x is t) or t = fixed (axis
+    "sigma": x is sigma) of the cell cell (index into cells, a dict of (n,) s0, s1, t0, t1).
+    Segments of cells with use[cell] are evaluated on the interpolant's restriction to the
+    segment (a Legendre series in x, its coefficients computed once per segment); the
+    others by fallback(x, seg) -> (J, K, H, regular) for parameters x of segments seg.
+    """
+
+    def __init__(self, C, use, cells, cell, fixed, axis, fallback):
+        self.axis, self.fallback = axis, fallback
+        self.cell, self.fixed = np.asarray(cell), np.asarray(fixed, dtype=float)
+        self.use = use[self.cell]
+        c = self.cell
+        if axis == "t":
+            a, b = cells["s0"][c], cells["s1"][c]
+            self.x0, self.x1 = cells["t0"][c], cells["t1"][c]
+        else:
+            a, b = cells["t0"][c], cells["t1"][c]
+            self.x0, self.x1 = cells["s0"][c], cells["s1"][c]
+        deg = C.shape[-1] - 1
+        i = np.nonzero(self.use)[0]
+        self.coef = np.zeros((c.size, 3, deg + 1))
+        if i.size:
+            P = np.polynomial.legendre.legvander(_local(self.fixed[i], a[i], b[i]), deg)
+            Ci = C[c[i]]
+            if axis != "t":
+                Ci = np.swapaxes(Ci, 2, 3)
+            self.coef[i] = np.matmul(P[:, None, None, :], Ci)[:, :, 0, :]
+
+    def __call__(self, x, seg):
+        x, seg = np.asarray(x, dtype=float).ravel(), np.asarray(seg).ravel()
+        n = x.size
+        J, K, H = np.empty(n), np.empty(n), np.empty(n)
+        reg = np.ones(n, bool)
+        use = self.use[seg]
+        i = np.nonzero(use)[0]
+        if i.size:
+            s = seg[i]
+            P = np.polynomial.legendre.legvander(_local(x[i], self.x0[s], self.x1[s]), self.coef.shape[2] - 1)
+            J[i], K[i], H[i] = np.einsum("mk,mfk->fm", P, self.coef[s])
+        i = np.nonzero(~use)[0]
+        if i.size:
+            J[i], K[i], H[i], reg[i] = self.fallback(x[i], seg[i])
+        return J, K, H, reg
