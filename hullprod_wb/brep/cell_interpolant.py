@@ -12,6 +12,8 @@ error is small enough, instead of evaluating the surface along the lines.
 """
 import numpy as np
 
+from .gauss_rules import legendre_vander
+
 #: Points per block of two-dimensional interpolant evaluations (bounds the memory of the
 #: gathered coefficients: block x 3 x (2o)^2 floats).
 CHUNK = 20000
@@ -23,7 +25,7 @@ def grid_matrices(x):
     parent's own nodes x."""
     o = x.size
     grid = np.concatenate((0.5 * x, 0.5 + 0.5 * x))
-    LV = np.polynomial.legendre.legvander
+    LV = legendre_vander
     return np.linalg.inv(LV(2.0 * grid - 1.0, 2 * o - 1)), LV(2.0 * x - 1.0, 2 * o - 1)
 
 
@@ -63,8 +65,8 @@ def cell_values(C, cells, cell, sig, t):
     """J, K, H (m,) of the interpolants C (n, 3, 2o, 2o) of cells (dict of (n,) s0, s1, t0,
     t1) at patch coordinates (sig, t) (m,) of the cells cell (m,)."""
     deg = C.shape[-1] - 1
-    PX = np.polynomial.legendre.legvander(_local(sig, cells["s0"][cell], cells["s1"][cell]), deg)
-    PE = np.polynomial.legendre.legvander(_local(t, cells["t0"][cell], cells["t1"][cell]), deg)
+    PX = legendre_vander(_local(sig, cells["s0"][cell], cells["s1"][cell]), deg)
+    PE = legendre_vander(_local(t, cells["t0"][cell], cells["t1"][cell]), deg)
     out = np.empty((cell.size, 3))
     for a in range(0, cell.size, CHUNK):
         b = slice(a, a + CHUNK)
@@ -98,7 +100,7 @@ class SegmentField:
         i = np.nonzero(self.use)[0]
         self.coef = np.zeros((c.size, 3, deg + 1))
         if i.size:
-            P = np.polynomial.legendre.legvander(_local(self.fixed[i], a[i], b[i]), deg)
+            P = legendre_vander(_local(self.fixed[i], a[i], b[i]), deg)
             Ci = C[c[i]]
             if axis != "t":
                 Ci = np.swapaxes(Ci, 2, 3)
@@ -113,7 +115,7 @@ class SegmentField:
         i = np.nonzero(use)[0]
         if i.size:
             s = seg[i]
-            P = np.polynomial.legendre.legvander(_local(x[i], self.x0[s], self.x1[s]), self.coef.shape[2] - 1)
+            P = legendre_vander(_local(x[i], self.x0[s], self.x1[s]), self.coef.shape[2] - 1)
             J[i], K[i], H[i] = np.einsum("mk,mfk->fm", P, self.coef[s])
         i = np.nonzero(~use)[0]
         if i.size:

@@ -5,6 +5,20 @@ Gauss-Kronrod 3/7 pair, and weights integrating the interpolant of samples over 
 import numpy as np
 
 
+def legendre_vander(z, deg):
+    """Legendre-Vandermonde matrix (n, deg + 1) of z (n,) in [-1, 1]: P_k(z) by the
+    three-term recurrence k P_k = (2k - 1) z P_(k-1) - (k - 1) P_(k-2), written row-major
+    (numpy's legvander returns a strided view, slower in the products that follow)."""
+    z = np.asarray(z, dtype=float).ravel()
+    V = np.empty((z.size, deg + 1))
+    V[:, 0] = 1.0
+    if deg > 0:
+        V[:, 1] = z
+    for k in range(2, deg + 1):
+        V[:, k] = ((2 * k - 1) * z * V[:, k - 1] - (k - 1) * V[:, k - 2]) / k
+    return V
+
+
 def embedded_weights(x):
     """Weights (n,) on the Gauss nodes x (n,) of [0, 1] of the interpolatory rule on all
     of them but the middle one (n odd; for n even, the one left of the middle), exact to

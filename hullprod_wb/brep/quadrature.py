@@ -65,7 +65,8 @@ from ..core.errors import InputError
 from ..core.integrals import SurfaceIntegrals
 from ..core.thresholds import check_positive, classify
 from .cell_interpolant import SegmentField, cell_values, fit_interpolants, grid_matrices
-from .gauss_rules import WK, XK, embedded_weights, gauss_nodes, kronrod_error, piece_weights
+from .gauss_rules import (WK, XK, embedded_weights, gauss_nodes, kronrod_error, legendre_vander,
+                          piece_weights)
 from .patches import Patches, cluster_map
 from .trimmed_domain import TrimmedDomain, solve_bracketed
 
@@ -845,7 +846,7 @@ class _Integrator:
         errs = np.zeros((2, lid.size))
         Js, KJs = S["J"], S["KJ"]
         # every piece: integrals of the interpolants at the line's samples ZS
-        LV = np.polynomial.legendre.legvander
+        LV = legendre_vander
         dz = 0.5 * (LV(2.0 * (b - t0[lid]) / span - 1.0, ZS.size)
                     - LV(2.0 * (a - t0[lid]) / span - 1.0, ZS.size))
         w_hi = (dz @ M_HI) * (span * width[lid])[:, None]
