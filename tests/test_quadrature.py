@@ -497,7 +497,7 @@ def test_mixed_cells_on_interpolants_agree_with_field_lines(monkeypatch):
                  lambda u, v: 0.5 + 0.0 * u)
     d = TrimmedDomain.rectangle(0, 1, 0, 1)
     fast = integrate(d, f, TAU_H, TAU_K)
-    monkeypatch.setattr(quadrature, "SURROGATE_SHARE", 0.0)
+    monkeypatch.setattr(quadrature, "INTERPOLANT_SHARE", 0.0)
     slow = integrate(d, f, TAU_H, TAU_K)
     for q in QUANTITIES:
         # both converged at rtol 1e-4; their difference is far below it

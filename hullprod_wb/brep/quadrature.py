@@ -35,7 +35,7 @@ where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself, contains -t
 and class areas are line integrals over the parent, taken on the tensor interpolant of J, K,
 H through its children's samples (hullprod_wb.brep.cell_interpolant) when the interpolant's
 error, measured at the parent's own nodes and propagated to each integral, is within
-SURROGATE_SHARE of the cell's budget (it then adds to the cell's error); a cell whose
+INTERPOLANT_SHARE of the cell's budget (it then adds to the cell's error); a cell whose
 interpolant is not yet that accurate is split instead, and at the last level its lines run
 on the field itself:
 - on a line sigma = const, the crossings in t of K - tau_K, K + tau_K, H - tau_H, H + tau_H
@@ -113,9 +113,9 @@ TANGENT_STEPS = 10
 #: cell that holds this many pieces (the quadtree refines such cells instead).
 STALL_RATIO = 0.45
 MAX_PIECES = 64
-#: A mixed cell's lines are taken on its local interpolant (see _Integrator._surrogates)
+#: A mixed cell's lines are taken on its local interpolant (see _Integrator._interpolants)
 #: when the interpolant's error estimate is within this share of the cell's budget.
-SURROGATE_SHARE = 0.1
+INTERPOLANT_SHARE = 0.1
 #: Number of candidate cells of largest |K| J kept for the singular-point audit.
 N_PEAKS = 10
 #: At most this many non-regular sample locations are kept.
@@ -557,19 +557,19 @@ class _Integrator:
                 sub = {k: v[lined] for k, v in unit.items()}
                 share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
                 lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
-                sur = self._surrogates(a, ch, lined, sub, lbudget)
-                if not last and not sur["use"].all():
+                interp = self._interpolants(a, ch, lined, sub, lbudget)
+                if not last and not interp["use"].all():
                     # a cell whose interpolant is not yet accurate is split rather than
                     # integrated on lines of the field: its children's interpolants converge
                     # fast, and four children cost less than the lines of one cell
-                    keep = sur["use"]
+                    keep = interp["use"]
                     accept[np.nonzero(lined)[0][~keep]] = False
                     lined[lined] = keep
                     sub = {k: v[keep] for k, v in sub.items()}
-                    sur = {k: v[keep] for k, v in sur.items()}
+                    interp = {k: v[keep] for k, v in interp.items()}
                     lbudget = lbudget[keep]
             if lined.any():
-                val, lerr, _ = self._lines(sub, lbudget, sur)
+                val, lerr, _ = self._lines(sub, lbudget, interp)
                 # the quadtree's children sums are an independent check of the K integrals:
                 # a discrepancy beyond the line estimate that the quadtree also sees (its own
                 # estimate) marks a rough or singular integrand the lines did not resolve.
@@ -578,7 +578,7 @@ class _Integrator:
                 # Gauss sums' own error at the kink of |K| that the lines remove.
                 kq = slice(2, N_SMOOTH)
                 gap = np.minimum(np.abs(val[:, :3] - sub["Q"][:, kq]), err[lined, kq])
-                gap[sur["use"]] = 0.0
+                gap[interp["use"]] = 0.0
                 lerr[:, :3] = np.maximum(lerr[:, :3], gap)
                 unit["Q"][lined, LINE_Q] = val
                 err[lined, LINE_Q] = lerr
@@ -638,7 +638,7 @@ class _Integrator:
 
     # -- local interpolants of mixed cells ----------------------------------------------------
 
-    def _surrogates(self, parent, children, sel, units, budget):
+    def _interpolants(self, parent, children, sel, units, budget):
         """Tensor interpolants of J, K, H over the mixed parent cells parent[sel], from
         their children's samples, and whether each is accurate enough to stand for the field
         on its lines.
@@ -651,7 +651,7 @@ class _Integrator:
         where |K| <= tau_K may hold: flat against single) that the cell's values reach within
         d_g (a level curve moves by about d_g / |grad g|, and |grad g| is about range_g over
         the cell), plus each class's area times max d_J / min J. A cell uses its interpolant when every sample is
-        regular and finite and these errors are within SURROGATE_SHARE of its budget
+        regular and finite and these errors are within INTERPOLANT_SHARE of its budget
         (m, 7); the errors are then part of its line error estimate.
 
         Returns dict C (m, 3, 2o, 2o), use (m,) bool, err (m, 7)."""
@@ -685,27 +685,27 @@ class _Integrator:
         rel_J = d[:, 0] / np.maximum(np.abs(lo[:, 0]), 1e-300)
         err[:, 3:] += np.abs(units["Q"][:, N_SMOOTH:]) * rel_J[:, None]
         err = np.where(reg[:, None], err, np.inf)
-        use = np.all(err <= SURROGATE_SHARE * budget, 1)
+        use = np.all(err <= INTERPOLANT_SHARE * budget, 1)
         return dict(C=fit["C"], use=use, err=np.where(use[:, None], err, 0.0))
 
     def _segments_t(self, cell, sig, u, lo, width):
         """SegmentField of the lines sigma = sig (L,) of the mixed cells cell (L,) (u, lo,
         width (L,): the lines' u and strip bounds, for the field where no interpolant is used)."""
-        return SegmentField(self._sur["C"], self._sur["use"], self._pc_cells, cell, sig, "t",
+        return SegmentField(self._interp["C"], self._interp["use"], self._pc_cells, cell, sig, "t",
                             lambda x, i: self.f(u[i], lo[i] + x * width[i]))
 
     def _cell_field(self, cell, sig, t):
         """J, K, H, regular (m,) at patch coordinates (sig, t) (m,) of the mixed cells cell
         (m,) (indices into _pc_cells): the interpolant where the cell uses one, else the field."""
-        cells, sur = self._pc_cells, self._sur
+        cells, interp = self._pc_cells, self._interp
         cell = np.asarray(cell).ravel()
         sig, t = np.broadcast_to(sig, cell.shape).ravel(), np.broadcast_to(t, cell.shape).ravel()
         J, K, H = np.empty(cell.size), np.empty(cell.size), np.empty(cell.size)
         reg = np.ones(cell.size, bool)
-        use = sur["use"][cell]
+        use = interp["use"][cell]
         i = np.nonzero(use)[0]
         if i.size:
-            J[i], K[i], H[i] = cell_values(sur["C"], cells, cell[i], sig[i], t[i])
+            J[i], K[i], H[i] = cell_values(interp["C"], cells, cell[i], sig[i], t[i])
         i = np.nonzero(~use)[0]
         if i.size:
             pid = cells["pid"][cell[i]]
@@ -938,7 +938,7 @@ class _Integrator:
             lo, hi = self.patches.bounds(pe[i], u)
             return self.f(u, lo + tE[i] * (hi - lo))
 
-        evalf = SegmentField(self._sur["C"], self._sur["use"], cells, E, tE, "sigma", fallback)
+        evalf = SegmentField(self._interp["C"], self._interp["use"], cells, E, tE, "sigma", fallback)
         li, _, roots, _ = self._crossings(evalf, cells["s0"][E], cells["s1"][E])
         return E[li], roots
 
@@ -994,7 +994,7 @@ class _Integrator:
         inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
         return p[i][inside], root[inside]
 
-    def _lines(self, cells, budget, surrogates):
+    def _lines(self, cells, budget, interpolants):
         """LINE_Q integrals (n, 7), error estimates (n, 7) and fit flags (n,) of mixed cells
         with error budgets (n, 7).
 
@@ -1007,7 +1007,7 @@ class _Integrator:
         or once its accepted errors exceed it, two halves keep more than STALL_RATIO of their
         parent's error, or it holds MAX_PIECES pieces (a singular or rough integrand). A cell
         fits when its total error estimate is within its budget."""
-        self._pc_cells, self._sur = cells, surrogates
+        self._pc_cells, self._interp = cells, interpolants
         nc = cells["pid"].size
         out, errs = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q))
         ec, es = self._edge_cuts(cells)
@@ -1017,7 +1017,7 @@ class _Integrator:
         n = cell.size
         pc = dict(cell=cell, sa=sa, sb=sb, kind=np.zeros(n, int), perr=np.full(n, np.inf),
                   sib=np.full(n, -1))
-        left = budget - surrogates["err"]
+        left = budget - interpolants["err"]
         for level in range(self.class_max_depth + 1):
             F, e_s, e_t, sig, count, pair = self._piece_values(pc)
             last = level == self.class_max_depth
@@ -1047,7 +1047,7 @@ class _Integrator:
             pc = _concat_pieces(_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm))
             if pc["sa"].size == 0:
                 break
-        errs += surrogates["err"]
+        errs += interpolants["err"]
         return out, errs, np.all(errs <= budget, 1)
 
     # -- result -------------------------------------------------------------------------------
