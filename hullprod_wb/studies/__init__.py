@@ -3,7 +3,7 @@
 GUI-free Python API; each study returns a plain JSON-safe dict:
 
     sameface_study(source, faces=None, levels=(12, 24, 48), patterns=('consistent', 'alternating'),
-                   inset=0.05, curvature=None, progress=None, abs_K_share=None)
+                   inset=0.05, curvature=None, progress=None, abs_K_share=None, align_creases=True)
     refinement_study(source=None, meshes=None, lref=None, h_f=1e-4, k_f=1e-4,
                      linear=(0.0035, 0.00175, 0.000875), angular=(0.3, 0.25, 0.2), faces=None,
                      names=None, progress=None)

@@ -108,8 +108,8 @@ def study_summary(doc):
     kind = doc["study"]
     lines = []
     if kind == "sameface":
-        lines.append("same-face curvature recovery, 100 eps (eq:sameface_error); 'smooth' without the two-ring "
-                     "of knot lines below C2")
+        lines.append("same-face curvature recovery, 100 eps (eq:sameface_error), two-ring mask with crease "
+                     "rows as boundary; 'smooth' also without the two-ring of knot lines below C2")
         lines.append("%5s %6s %-11s %8s %8s %8s %8s %6s" % ("face", "panels", "pattern", "eps_H%", "eps_K%",
                                                          "smoothH%", "smoothK%", "kept"))
         for f in doc["faces"]:

@@ -214,8 +214,9 @@ def sameface_section(s):
     from .render import render_sameface_errors
     parts = ["<h2>Same-face BRep-to-mesh curvature recovery</h2>",
              '<p class="note">Structured grids over an inset parameter rectangle (inset %s of each range), '
-             "vertices at S(u, v); relative L2 errors of eq:sameface_error with the consistent P1 mass "
-             "matrix on the common two-ring strict-interior mask; one global sign for H. "
+             "vertices at S(u, v), grid lines on the face's C0 knot lines (creases); relative L2 errors "
+             "of eq:sameface_error with the consistent P1 mass matrix on the common two-ring "
+             "strict-interior mask, crease rows counted as boundary; one global sign for H. "
              "'smooth': also without the vertices whose two-ring crosses a knot line below C2 "
              "(where the BRep H, K jump).</p>" % esc(fmt(s["settings"]["inset"]))]
     summary = []
