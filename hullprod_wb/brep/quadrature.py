@@ -373,8 +373,13 @@ def _halve_pieces(pc, mask, err):
                 perr=np.repeat(err[mask], 2), sib=np.repeat(np.nonzero(mask)[0], 2))
 
 
-def _concat_pieces(*parts):
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+def _share_area_error(err, Q):
+    """err (n, 9) with the class areas' columns set to the area's error shared by each
+    cell's class fractions (from its integrals Q (n, 9)): outside mixed cells a class area
+    is the area of the cell's one class."""
+    frac = Q[:, N_SMOOTH:] / np.maximum(Q[:, :1], 1e-300)
+    err[:, N_SMOOTH:] = err[:, :1] * np.abs(frac)
+    return err
 
 
 def _cat(parts):
@@ -536,9 +541,7 @@ class _Integrator:
             pk = ch["peak"].reshape(na, 4, 3)
             unit["peak"] = pk[np.arange(na), pk[:, :, 2].argmax(1)]
             unit["depth"] = np.full(na, self.depth)
-            err = np.abs(a["Q"] - unit["Q"])
-            frac = unit["Q"][:, 5:] / np.maximum(unit["Q"][:, :1], 1e-300)
-            err[:, 5:] = err[:, :1] * np.abs(frac)  # area error shared among the classes
+            err = _share_area_error(np.abs(a["Q"] - unit["Q"]), unit["Q"])
             mixed = unit["mixed"]
             err_tree = err.copy()
             if self.lines:
@@ -609,9 +612,7 @@ class _Integrator:
         cand = ~a["mixed"] & a["sreg"].reshape(n, -1).all(1) & np.isfinite(a["err_e"]).all(1)
         if not cand.any():
             return
-        err = a["err_e"].copy()
-        frac = a["Q"][:, 5:] / np.maximum(a["Q"][:, :1], 1e-300)
-        err[:, 5:] = err[:, :1] * np.abs(frac)
+        err = _share_area_error(a["err_e"].copy(), a["Q"])
         Qtot = sum((p["Q"].sum(0) for p in self.accepted), a["Q"].sum(0))
         budget = OWN_SAFETY * (self._tolerance(Qtot) - self.err_acc)
         ok = np.zeros(n, bool)
@@ -1044,7 +1045,7 @@ class _Integrator:
             errs += _row_sums(c[done], err[done], nc)
             left -= _row_sums(c[done], err[done], nc)
             halve = ~done & ~cut
-            pc = _concat_pieces(_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm))
+            pc = _cat([_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm)])
             if pc["sa"].size == 0:
                 break
         errs += interpolants["err"]
