@@ -15,17 +15,24 @@ def _edge_params(edge, n=EDGE_SAMPLES):
     return [a + (b - a) * t for t in np.linspace(0.05, 0.95, n)]
 
 
-def _normal_on_edge(face, edge, t, point):
-    """Unit normal (3,) of face at parameter t of its boundary edge (point: the 3-D point):
-    (u, v) from the edge's p-curve on the face (exact, cheap), else by projection."""
+def _normals_on_edge(face, edge, ts, points):
+    """Unit normals (k, 3) of face at parameters ts (k,) of its boundary edge (points: the
+    3-D points): (u, v) from the edge's p-curve on the face (exact, cheap), else by
+    projection. A normal that is undefined (degenerate point) is NaN."""
     pc = face.curveOnSurface(edge)
-    if pc is not None:
-        uv = pc[0].value(t)
-        u, v = uv.x, uv.y
-    else:
-        u, v = face.Surface.parameter(point)
-    n = face.normalAt(u, v)
-    return np.array([n.x, n.y, n.z])
+    out = np.full((len(ts), 3), np.nan)
+    for i, (t, p) in enumerate(zip(ts, points)):
+        try:
+            if pc is not None:
+                uv = pc[0].value(t)
+                u, v = uv.x, uv.y
+            else:
+                u, v = face.Surface.parameter(p)
+            n = face.normalAt(u, v)
+            out[i] = (n.x, n.y, n.z)
+        except Exception:  # normal undefined at a degenerate point
+            continue
+    return out
 
 
 def _on_edges(point, edges, tol):
@@ -80,15 +87,12 @@ def edge_report(shape, faces):
                 continue
             n_shared += 1
             shared_len += 0.5 * edge.Length
-            angles = []
-            for t, p, (oedge, ot) in zip(ts, pts, partner[2]):
-                try:
-                    c = abs(float(np.dot(_normal_on_edge(face, edge, t, p),
-                                         _normal_on_edge(partner[1], oedge, ot, p))))
-                    angles.append(np.degrees(np.arccos(min(1.0, c))))
-                except Exception:  # normal undefined at a degenerate point
-                    continue
-            max_angle = max(angles) if angles else None
+            mine = _normals_on_edge(face, edge, ts, pts)
+            theirs = np.array([_normals_on_edge(partner[1], oe, [ot], [p])[0]
+                               for (oe, ot), p in zip(partner[2], pts)])
+            cos = np.abs(np.einsum("ij,ij->i", mine, theirs))
+            angles = np.degrees(np.arccos(np.minimum(1.0, cos[np.isfinite(cos)])))
+            max_angle = float(angles.max()) if angles.size else None
             if max_angle is not None and max_angle > CREASE_ANGLE_DEG:
                 key = tuple(sorted((number, partner[0])))
                 rec = creases.setdefault(key, {"faces": list(key), "length": 0.0, "max_normal_angle_deg": 0.0})
