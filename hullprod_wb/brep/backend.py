@@ -83,8 +83,9 @@ def cross_check_occ(ff, domain, n=CROSS_CHECK_POINTS):
 def area_cross_check(ff, domain, u_breaks, v_breaks, area):
     """Represented area by the fixed tensor Gauss-Legendre rule of order 8 on every
     boundary-fitted patch (quadrature.patch_rule), an estimate independent of the adaptive
-    cubature, with its embedded-rule bound on its own error."""
-    values, bounds = patch_rule(domain, ff, 8, u_breaks, v_breaks)
+    cubature, with its embedded-rule bound on its own error. Only J is evaluated (first
+    derivatives: FaceField.area_element)."""
+    values, bounds = patch_rule(domain, ff.area_element, 8, u_breaks, v_breaks)
     ref = values["A"]
     return {"method": "tensor Gauss-Legendre order 8 on the boundary-fitted patches",
             "area": ref, "check_error_bound": bounds["A"],

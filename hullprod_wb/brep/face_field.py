@@ -2,7 +2,7 @@
 eq:brep_jacobian), evaluated in batches from the exact surface derivatives."""
 import numpy as np
 
-from .differential import surface_differentials
+from .differential import jacobian, surface_differentials
 from .surface_eval import SurfaceEvaluator
 
 
@@ -27,3 +27,14 @@ class FaceField:
         d = surface_differentials(der, orientation_sign=self.sign)
         return {"J": d.J, "K": d.K, "H": d.H, "k1": d.k1, "k2": d.k2, "regular": d.regular,
                 "points": der[0]}
+
+    def area_element(self, u, v):
+        """J = |S_u x S_v| alone (eq:brep_jacobian), from first derivatives only, as a field
+        for area integrals: dict(J, K, H, regular) with K = H = 0 and regular where J is
+        finite (the class and curvature quantities of such a field are meaningless)."""
+        u = np.asarray(u, dtype=float).ravel()
+        v = np.asarray(v, dtype=float).ravel()
+        _, su, sv = self.evaluator.first_derivatives(u, v)
+        J = jacobian(su, sv)
+        zero = np.zeros(u.size)
+        return {"J": J, "K": zero, "H": zero, "regular": np.isfinite(J)}
