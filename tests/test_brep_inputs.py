@@ -110,3 +110,19 @@ def test_cli_bad_brep_inputs_exit_2(tmp_path):
         # progress lines may precede it; the reason is one line, the last
         errors = [line for line in r.stderr.splitlines() if line.startswith("hullprod: error:")]
         assert len(errors) == 1 and r.stderr.strip().splitlines()[-1] == errors[0]
+
+
+def test_automatic_lref_without_fields_from_tessellation_nodes():
+    """Without fields the automatic L_ref comes from OpenCascade's tessellation nodes (no
+    field evaluation at them): a torus (span 2 (R + r) = 8 along its principal axes) gives
+    the same value to the tessellation's accuracy as the exact-sample path, and the same
+    integrals."""
+    from brep_shapes import torus_shape
+    from hullprod_wb.brep.backend import assess_brep
+    a = assess_brep(torus_shape(), with_fields=False, cross_checks=False, audit=False)
+    b = assess_brep(torus_shape(), with_fields=True, cross_checks=False, audit=False)
+    la, lb = a.reference_length.value, b.reference_length.value
+    assert a.reference_length.mode == "automatic"
+    assert abs(la - 8.0) < 0.05 and abs(lb - 8.0) < 0.05
+    assert a.fields is None and b.fields is not None
+    assert a.integrals.represented_area == b.integrals.represented_area

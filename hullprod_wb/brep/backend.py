@@ -19,7 +19,8 @@ from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..core.validity import MetricValidity, Status
 from . import singular
-from .display import DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces
+from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
+                      tessellation_samples)
 from .face_field import FaceField
 from .loading import load_brep
 from .provenance import shape_provenance
@@ -416,7 +417,9 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     face_fields = [(n, FaceField(f)) for n, f in inp.faces]
     size = inp.shape.BoundBox.DiagonalLength
     deflection = display_deflection or (DISPLAY_DEFLECTION if with_fields else SAMPLE_DEFLECTION) * size
-    samples = sample_faces(face_fields, deflection)
+    # without fields the samples only give the automatic L_ref: OpenCascade's nodes suffice
+    samples = sample_faces(face_fields, deflection) if with_fields else \
+        tessellation_samples([f for _, f in inp.faces], deflection)
     if samples is None:
         raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
     ref = resolve_reference_length(samples["points"], samples["node_area"], explicit=lref,

@@ -57,10 +57,34 @@ def sample_faces(face_fields, deflection):
     if not parts["points"]:
         return None
     out = {k: np.concatenate(v) for k, v in parts.items()}
-    P, T = out["points"], out["triangles"]
-    area = 0.5 * np.linalg.norm(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), axis=1)
-    out["node_area"] = np.bincount(T.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(P))
+    out["node_area"] = node_areas(out["points"], out["triangles"])
     return out
+
+
+def tessellation_samples(faces, deflection):
+    """Points (n, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
+    of Part.Face), without fields: all the automatic reference length needs. Returns a dict
+    with points and node_area, or None when no face has a tessellation."""
+    points, triangles = [], []
+    offset = 0
+    for face in faces:
+        pts, tris = face.tessellate(deflection)
+        if len(pts) == 0 or len(tris) == 0:
+            continue
+        points.append(np.array([[p.x, p.y, p.z] for p in pts]))
+        triangles.append(np.asarray(tris, dtype=np.int64) + offset)
+        offset += len(pts)
+    if not points:
+        return None
+    P, T = np.concatenate(points), np.concatenate(triangles)
+    return {"points": P, "node_area": node_areas(P, T)}
+
+
+def node_areas(P, T):
+    """Barycentric node areas (n,) of the triangles T (m, 3) over the points P (n, 3): a third
+    of each triangle's area to each of its nodes."""
+    area = 0.5 * np.linalg.norm(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), axis=1)
+    return np.bincount(T.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(P))
 
 
 def display_fields(samples, lref, thresholds):
