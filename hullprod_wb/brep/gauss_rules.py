@@ -7,16 +7,18 @@ import numpy as np
 
 def legendre_vander(z, deg):
     """Legendre-Vandermonde matrix (n, deg + 1) of z (n,) in [-1, 1]: P_k(z) by the
-    three-term recurrence k P_k = (2k - 1) z P_(k-1) - (k - 1) P_(k-2), written row-major
-    (numpy's legvander returns a strided view, slower in the products that follow)."""
+    three-term recurrence k P_k = (2k - 1) z P_(k-1) - (k - 1) P_(k-2). Each degree is
+    written as one contiguous row of a (deg + 1, n) array and the transpose is returned
+    (a column-major view): writing the columns of a row-major array instead strides through
+    memory and costs several times more on large n."""
     z = np.asarray(z, dtype=float).ravel()
-    V = np.empty((z.size, deg + 1))
-    V[:, 0] = 1.0
+    V = np.empty((deg + 1, z.size))
+    V[0] = 1.0
     if deg > 0:
-        V[:, 1] = z
+        V[1] = z
     for k in range(2, deg + 1):
-        V[:, k] = ((2 * k - 1) * z * V[:, k - 1] - (k - 1) * V[:, k - 2]) / k
-    return V
+        V[k] = ((2 * k - 1) * z * V[k - 1] - (k - 1) * V[k - 2]) / k
+    return V.T
 
 
 def embedded_weights(x):
