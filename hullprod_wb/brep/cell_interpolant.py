@@ -121,3 +121,24 @@ class SegmentField:
         if i.size:
             J[i], K[i], H[i], reg[i] = self.fallback(x[i], seg[i])
         return J, K, H, reg
+
+    def grid(self, xs):
+        """J, K, H, regular (n m,) at xs (n, m): segment k at its m parameters xs[k], in the
+        order of self(xs.ravel(), np.repeat(np.arange(n), m)). The series of a segment is
+        applied to its m points by one product (no coefficients gathered per point)."""
+        xs = np.asarray(xs, dtype=float)
+        n, m = xs.shape
+        out = np.empty((3, n, m))
+        reg = np.ones((n, m), bool)
+        i = np.nonzero(self.use)[0]
+        if i.size:
+            z = _local(xs[i], self.x0[i, None], self.x1[i, None])
+            V = legendre_vander(z, self.coef.shape[2] - 1).T.reshape(-1, i.size, m)
+            out[:, i] = np.matmul(self.coef[i], V.transpose(1, 0, 2)).transpose(1, 0, 2)
+        i = np.nonzero(~self.use)[0]
+        if i.size:
+            f = self.fallback(xs[i].ravel(), np.repeat(i, m))
+            for row in range(3):
+                out[row, i] = f[row].reshape(-1, m)
+            reg[i] = f[3].reshape(-1, m)
+        return out[0].ravel(), out[1].ravel(), out[2].ravel(), reg.ravel()

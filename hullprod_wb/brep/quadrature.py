@@ -720,8 +720,8 @@ class _Integrator:
     def _crossings(self, evalf, x0, x1, refine=True):
         """Zeros of the five level functions along segments x in [x0, x1] (n,).
 
-        evalf(x, i) -> (J, K, H, regular) (m,) each, at parameters x (m,) of segments i (m,)
-        (a SegmentField).
+        evalf(x, i) -> (J, K, H, regular) (m,) each, at parameters x (m,) of segments i (m,),
+        and evalf.grid(xs) at parameters xs (n, k) of every segment (a SegmentField).
         Brackets: sign changes between the samples at ZS, and, where three samples of one
         sign dip towards zero and their parabola's vertex gets within DIP_FRACTION of zero,
         the two sides of the extremum (_parabolic_min) when it has the other sign. Levels of
@@ -733,7 +733,7 @@ class _Integrator:
         n = x0.size
         m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
-        J, K, H, reg = evalf(xs.ravel(), np.repeat(np.arange(n), m))
+        J, K, H, reg = evalf.grid(xs)
         G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, m, N_LEVELS)
         S = dict(J=np.where(reg, J, 0.0).reshape(n, m), KJ=np.where(reg, K * J, 0.0).reshape(n, m),
                  K=K.reshape(n, m), H=H.reshape(n, m), reg=reg.reshape(n, m))
