@@ -526,3 +526,61 @@ def test_patch_rule_bounds_its_error():
     assert errors[1] < 1e-3 * errors[0] and errors[2] < 1e-10 * exact and errors[3] < 1e-12 * exact
     with pytest.raises(InputError):
         patch_rule(d, f, 2)
+
+
+def test_segment_series_roots_and_exact_integrals():
+    """A segment of an interpolant is a Legendre series in its local coordinate: its power
+    form matches numpy's, Newton on it finds the level crossings to machine precision (a
+    simple root and both roots of a near-double pair), and the integrals of J and K J over
+    pieces are exact against numpy's polynomial antiderivatives."""
+    from numpy.polynomial import legendre as leg
+    from numpy.polynomial import polynomial as poly
+    from hullprod_wb.brep.cell_interpolant import SegmentField, monomial_matrix
+    deg = 9
+    M = monomial_matrix(deg)
+    for k in range(deg + 1):
+        p = leg.leg2poly(np.eye(deg + 1)[k])
+        assert np.allclose(M[k, :p.size], p, atol=1e-13) and not M[k, p.size:].any()
+    rng = np.random.default_rng(3)
+    # one cell on [0, 2] x [1, 3]; segments t = fixed along sigma (axis "sigma")
+    cells = dict(s0=np.array([0.0]), s1=np.array([2.0]), t0=np.array([1.0]), t1=np.array([3.0]))
+    C = rng.normal(size=(1, 3, deg + 1, deg + 1)) / (1.0 + np.arange(deg + 1))[None, None, :, None] ** 2
+    # K's series along every segment: chosen below through the fixed t's coefficients
+    seg = SegmentField(C, np.array([True]), cells, np.zeros(3, int), np.array([1.5, 2.0, 2.5]), "sigma",
+                       fallback=None)
+    z = np.linspace(-1, 1, 7)
+    for s in range(3):
+        for row in range(3):
+            ref = leg.legval(z, seg.coef[s, row])
+            assert np.allclose(poly.polyval(z, seg.power[s, row]), ref, rtol=1e-12, atol=1e-12)
+    # K along segment 0 replaced by (z - 0.3)(z + 0.5)(z - 0.3 - 1e-7) + 0: roots 0.3, -0.5,
+    # 0.3 + 1e-7 in z, i.e. x = 1 + z
+    target = poly.polyfromroots([0.3, -0.5, 0.3 + 1e-7])
+    seg.power[0, 1] = 0.0
+    seg.power[0, 1, :target.size] = target
+    x = lambda zz: 1.0 + zz
+    a = np.array([x(0.1), x(-0.9), x(0.3 + 5e-8)])
+    b = np.array([x(0.3 + 5e-8), x(0.0), x(0.6)])
+    fa, fb = poly.polyval(a - 1.0, target), poly.polyval(b - 1.0, target)
+    assert np.all(fa * fb < 0)
+    r = seg.roots(np.zeros(3, int), 1, np.zeros(3), a, b, fa, fb, 2e-12)
+    # the simple root to rounding; the pair 1e-7 apart (slope 8e-8 there) to its
+    # conditioning, each in its own bracket
+    assert r[1] == pytest.approx(x(-0.5), abs=1e-15)
+    assert r[[0, 2]] == pytest.approx([x(0.3), x(0.3 + 1e-7)], abs=1e-9)
+    assert r[0] < x(0.3 + 5e-8) < r[2]
+    # a level offset: K - c = 0
+    c = poly.polyval(0.2, target)
+    r = seg.roots(np.zeros(1, int), 1, np.array([c]), np.array([x(0.0)]), np.array([x(0.25)]),
+                  np.array([poly.polyval(0.0, target) - c]), np.array([poly.polyval(0.25, target) - c]), 2e-12)
+    assert r == pytest.approx([x(0.2)], abs=1e-12)
+    # exact integrals over pieces [a, b] in x (z = x - 1, dx = dz)
+    pa, pb = np.array([0.0, 0.3, 1.9]), np.array([2.0, 1.2, 1.95])
+    sid = np.array([1, 2, 2])
+    IJ, IKJ = seg.integrals(sid, pa, pb)
+    for k, s in enumerate(sid):
+        Jp, Kp = seg.power[s, 0], seg.power[s, 1]
+        A, B = poly.polyint(Jp), poly.polyint(poly.polymul(Kp, Jp))
+        za, zb = pa[k] - 1.0, pb[k] - 1.0
+        assert IJ[k] == pytest.approx(poly.polyval(zb, A) - poly.polyval(za, A), rel=1e-12, abs=1e-13)
+        assert IKJ[k] == pytest.approx(poly.polyval(zb, B) - poly.polyval(za, B), rel=1e-11, abs=1e-13)

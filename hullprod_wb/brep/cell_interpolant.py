@@ -61,6 +61,50 @@ def _local(x, a, b):
     return 2.0 * (x - a) / (b - a) - 1.0
 
 
+def monomial_matrix(deg):
+    """(deg + 1, deg + 1) matrix M with P_k(z) = sum_j M[k, j] z^j (Legendre polynomials
+    in powers of z, from k P_k = (2k - 1) z P_(k-1) - (k - 1) P_(k-2))."""
+    M = np.zeros((deg + 1, deg + 1))
+    M[0, 0] = 1.0
+    if deg > 0:
+        M[1, 1] = 1.0
+    for k in range(2, deg + 1):
+        M[k, 1:] = (2 * k - 1) / k * M[k - 1, :-1]
+        M[k] -= (k - 1) / k * M[k - 2]
+    return M
+
+
+def horner(C, z):
+    """sum_j C[:, j] z^j, (n,), for coefficient rows C (n, d + 1) and z (n,)."""
+    acc = C[:, -1].copy()
+    for j in range(C.shape[1] - 2, -1, -1):
+        acc *= z
+        acc += C[:, j]
+    return acc
+
+
+def product_matrix(deg):
+    """(( deg + 1)^2, 2 deg + 1) 0/1 matrix S: the outer product a_i b_j of two power
+    series of degree deg, flattened, times S gives the coefficients of their product."""
+    i, j = np.divmod(np.arange((deg + 1) ** 2), deg + 1)
+    S = np.zeros(((deg + 1) ** 2, 2 * deg + 1))
+    S[np.arange(S.shape[0]), i + j] = 1.0
+    return S
+
+
+def antiderivative(C):
+    """Power-series coefficients (n, d + 2) of the antiderivative, zero at z = 0, of the
+    series with coefficients C (n, d + 1)."""
+    out = np.zeros((C.shape[0], C.shape[1] + 1))
+    out[:, 1:] = C / np.arange(1, C.shape[1] + 1)
+    return out
+
+
+#: Most safeguarded Newton steps for a crossing on a segment's series (one Horner pair a
+#: step for the brackets still open; a simple root needs about five).
+NEWTON_STEPS = 60
+
+
 def cell_values(C, cells, cell, sig, t):
     """J, K, H (m,) of the interpolants C (n, 3, 2o, 2o) of cells (dict of (n,) s0, s1, t0,
     t1) at patch coordinates (sig, t) (m,) of the cells cell (m,)."""
@@ -105,6 +149,9 @@ class SegmentField:
             if axis != "t":
                 Ci = np.swapaxes(Ci, 2, 3)
             self.coef[i] = np.matmul(P[:, None, None, :], Ci)[:, :, 0, :]
+        # the same series in powers of the local coordinate z in [-1, 1] (J, K, H rows)
+        self.power = self.coef @ monomial_matrix(deg)
+        self._antiderivatives = None
 
     def __call__(self, x, seg):
         x, seg = np.asarray(x, dtype=float).ravel(), np.asarray(seg).ravel()
@@ -142,3 +189,58 @@ class SegmentField:
                 out[row, i] = f[row].reshape(-1, m)
             reg[i] = f[3].reshape(-1, m)
         return out[0].ravel(), out[1].ravel(), out[2].ravel(), reg.ravel()
+
+    def local(self, x, seg):
+        """Local coordinates z in [-1, 1] of parameters x (m,) of segments seg (m,)."""
+        return _local(x, self.x0[seg], self.x1[seg])
+
+    def roots(self, seg, row, offset, a, b, fa, fb, ztol):
+        """Zeros x (k,) of series row (0 J, 1 K, 2 H) minus offset (k,) of the segments seg
+        (k,), all using the interpolant, in the brackets [a, b] (x) whose values fa, fb (k,)
+        differ in sign: safeguarded Newton on the power series (exact derivative), a step
+        outside the bracket replaced by bisection, until a step is below ztol (in z) or
+        NEWTON_STEPS; a zero bracket end is returned as it is."""
+        C = self.power[seg, row].copy()
+        C[:, 0] -= offset
+        D = C[:, 1:] * np.arange(1, C.shape[1])
+        za, zb = self.local(a, seg), self.local(b, seg)
+        neg_a = fa < 0.0
+        lo, hi = np.where(neg_a, za, zb), np.where(neg_a, zb, za)  # f(lo) < 0 < f(hi)
+        flo, fhi = np.where(neg_a, fa, fb), np.where(neg_a, fb, fa)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = lo + np.nan_to_num(flo / (flo - fhi), nan=0.5) * (hi - lo)
+        z = np.where(fa == 0.0, za, np.where(fb == 0.0, zb, z))
+        act = np.nonzero((fa != 0.0) & (fb != 0.0))[0]
+        for _ in range(NEWTON_STEPS):
+            if act.size == 0:
+                break
+            zi = z[act]
+            f, df = horner(C[act], zi), horner(D[act], zi)
+            neg = f < 0.0
+            lo[act] = np.where(neg, zi, lo[act])
+            hi[act] = np.where(neg, hi[act], zi)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                step = f / df
+            zn = zi - step
+            l, h = lo[act], hi[act]
+            small = np.abs(step) <= ztol  # converged (the step may round onto a bracket end)
+            inside = np.isfinite(zn) & ((zn - l) * (zn - h) < 0.0)
+            zn = np.where(inside | small, zn, 0.5 * (l + h))
+            done = small | (f == 0.0) | (np.abs(h - l) <= ztol)
+            z[act] = np.where(f == 0.0, zi, zn)
+            act = act[~done]
+        return self.x0[seg] + 0.5 * (z + 1.0) * (self.x1[seg] - self.x0[seg])
+
+    def integrals(self, seg, a, b):
+        """Exact integrals over [a, b] (k,) in x of J and K J of the series of the segments
+        seg (k,) (all using the interpolant): the power series' antiderivatives (K J as the
+        product of the two series) at both ends. Returns two (k,) arrays."""
+        if self._antiderivatives is None:
+            deg = self.power.shape[2] - 1
+            J, K = self.power[:, 0], self.power[:, 1]
+            KJ = (K[:, :, None] * J[:, None, :]).reshape(len(J), -1) @ product_matrix(deg)
+            self._antiderivatives = (antiderivative(J), antiderivative(KJ))
+        AJ, AKJ = (A[seg] for A in self._antiderivatives)
+        za, zb = self.local(a, seg), self.local(b, seg)
+        h = 0.5 * (self.x1[seg] - self.x0[seg])
+        return h * (horner(AJ, zb) - horner(AJ, za)), h * (horner(AKJ, zb) - horner(AKJ, za))

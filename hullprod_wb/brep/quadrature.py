@@ -40,11 +40,15 @@ interpolant is not yet that accurate is split instead, and at the last level its
 on the field itself:
 - on a line sigma = const, the crossings in t of K - tau_K, K + tau_K, H - tau_H, H + tau_H
   and K are bracketed between the samples ZS (and around extrema of one sign that get
-  near zero between samples) and refined together (solve_bracketed, one field call per
-  step); each piece between crossings has one class and one sign of K, and J, K J are
-  integrated on it by Gauss-Kronrod 3/7, with the integral of their interpolants at ZS
-  as the comparison for the error estimate (on pieces shorter than SHORT_PIECE of the
-  line, the interpolants, against those of lower degree);
+  near zero between samples) and refined together; each piece between crossings has one
+  class and one sign of K. On a line of an interpolant (a Legendre series in t, see
+  cell_interpolant.SegmentField) the crossings are refined by safeguarded Newton on the
+  series and J, K J are integrated over each piece exactly (antiderivatives of the series
+  and of their product), so the line adds no error of its own; on a line of the field the
+  crossings are refined by solve_bracketed (one field call per step) and J, K J are
+  integrated by Gauss-Kronrod 3/7, with the integral of their interpolants at ZS as the
+  comparison for the error estimate (on pieces shorter than SHORT_PIECE of the line, the
+  interpolants, against those of lower degree);
 - in sigma the cell is cut where level curves cross its t edges (kinks of the line values)
   and where they are tangent to the lines (found between lines whose crossing counts
   differ; square-root ends, so those pieces get a clustered map), and the pieces are
@@ -243,6 +247,10 @@ SHORT_PIECE = 1e-3
 M_HI = piece_weights(ZS)
 M_LO = piece_weights(ZS[1:-1])
 
+
+
+#: Field row (SegmentField: 0 J, 1 K, 2 H) of each level function of _Integrator._thresholds.
+LEVEL_ROW = np.array([1, 1, 2, 2, 1])
 
 
 def _greedy_accept(err, budget, group=None):
@@ -793,9 +801,23 @@ class _Integrator:
             return li, q, roots, S
         if li.size == 0:
             return li, q, np.empty(0), S
-        roots = solve_bracketed(lambda x, i: g(x, i, li, q), a, b, fa, fb,
-                                CROSSING_RTOL * (x1 - x0)[li], maxiter=CROSSING_STEPS)
+        roots = np.empty(li.size)
+        # on an interpolant's segment a level function is a polynomial: Newton on its
+        # power series; elsewhere bracketed steps on the field
+        poly = evalf.use[li]
+        i = np.nonzero(poly)[0]
+        if i.size:
+            roots[i] = evalf.roots(li[i], LEVEL_ROW[q[i]], self._level_offsets()[q[i]], a[i], b[i],
+                                   fa[i], fb[i], 2.0 * CROSSING_RTOL)
+        i = np.nonzero(~poly)[0]
+        if i.size:
+            roots[i] = solve_bracketed(lambda x, k: g(x, i[k], li, q), a[i], b[i], fa[i], fb[i],
+                                       CROSSING_RTOL * (x1 - x0)[li[i]], maxiter=CROSSING_STEPS)
         return li, q, roots, S
+
+    def _level_offsets(self):
+        """(5,) constants the level functions subtract from their field (see _thresholds)."""
+        return np.array([self.tau_K, -self.tau_K, self.tau_H, -self.tau_H, 0.0])
 
     def _line_values(self, cell, pid, sig, t0, t1):
         """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)), in the mixed
@@ -804,8 +826,10 @@ class _Integrator:
         Returns dict F (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt, E (L, 7)
         their error estimates, count (L, 5) crossings of each level, pair (L, 5, 2) the
         closest two crossings of each level (NaN when fewer than two). The pieces of a line
-        between crossings have the class and the sign of K of their midpoint; J and K J are
-        integrated by Gauss-Kronrod 3/7 on pieces longer than SHORT_PIECE of the line (error
+        between crossings have the class and the sign of K of their midpoint. On lines of an
+        interpolant J and K J are integrated exactly (SegmentField.integrals, no error
+        estimate of their own); on lines of the field by Gauss-Kronrod 3/7 on pieces longer
+        than SHORT_PIECE of the line (error
         estimate: the difference to the integral of their degree-8 interpolants at the
         samples ZS; a line without crossings is one piece whose Kronrod nodes are samples),
         over those interpolants on shorter ones (error estimate: against the degree-6
@@ -819,16 +843,20 @@ class _Integrator:
         ar = np.arange(L)
         lid, a, b = _segments(np.concatenate((t0, roots, t1)), np.concatenate((ar, li, ar)))
         span = (t1 - t0)[lid]
-        whole = (a == t0[lid]) & (b == t1[lid])  # no crossing: the samples hold the nodes
-        long_ = ((b - a) > SHORT_PIECE * span) & ~whole
+        # pieces on an interpolant's line: exact integrals of its series, class at the midpoint
+        poly = evalf.use[lid]
+        whole = (a == t0[lid]) & (b == t1[lid]) & ~poly  # no crossing: the samples hold the nodes
+        long_ = ((b - a) > SHORT_PIECE * span) & ~whole & ~poly
         nl, nw = int(long_.sum()), int(whole.sum())
-        # one field call: the Kronrod nodes of long pieces, the midpoints of short ones
+        # one field call: the Kronrod nodes of long pieces, the midpoints of short ones and
+        # of the interpolant's pieces
         tl = a[long_, None] + (b - a)[long_, None] * XK[None, :]
-        sh = ~long_ & ~whole
-        tq = np.concatenate((tl.ravel(), 0.5 * (a + b)[sh]))
-        lq_ = np.concatenate((np.repeat(lid[long_], XK.size), lid[sh]))
+        sh = ~long_ & ~whole & ~poly
+        mp = sh | poly
+        tq = np.concatenate((tl.ravel(), 0.5 * (a + b)[mp]))
+        lq_ = np.concatenate((np.repeat(lid[long_], XK.size), lid[mp]))
         J, K, H, reg = evalf(tq, lq_)
-        # node values of long and whole pieces (7 each), then the short pieces' midpoints
+        # node values of long and whole pieces (7 each), then the other pieces' midpoints
         inner = (lid[whole], slice(1, -1))
         J = np.concatenate((np.where(reg, J, 0.0)[:nl * XK.size], S["J"][inner].ravel(),
                             np.where(reg, J, 0.0)[nl * XK.size:]))
@@ -839,28 +867,35 @@ class _Integrator:
         mid = np.empty(lid.size, int)  # index of each piece's midpoint value
         kw = np.concatenate((np.nonzero(long_)[0], np.nonzero(whole)[0]))
         mid[kw] = np.arange(nl + nw) * XK.size + XK.size // 2
-        mid[sh] = (nl + nw) * XK.size + np.arange(int(sh.sum()))
+        mid[mp] = (nl + nw) * XK.size + np.arange(int(mp.sum()))
         cls = classify(Kc[mid], Hc[mid], self.tau_H, self.tau_K, rc[mid])
         sk = np.sign(np.where(cls >= 0, Kc[mid], 0.0))
-        scale = (b - a) * width[lid]
         vals = np.zeros((2, lid.size))
         errs = np.zeros((2, lid.size))
-        Js, KJs = S["J"], S["KJ"]
-        # every piece: integrals of the interpolants at the line's samples ZS
-        LV = legendre_vander
-        dz = 0.5 * (LV(2.0 * (b - t0[lid]) / span - 1.0, ZS.size)
-                    - LV(2.0 * (a - t0[lid]) / span - 1.0, ZS.size))
-        w_hi = (dz @ M_HI) * (span * width[lid])[:, None]
-        w_lo = (dz[:, :ZS.size - 1] @ M_LO) * (span * width[lid])[:, None]
-        for row, (f, fz) in enumerate(((J, Js[lid]), (KJ, KJs[lid]))):
-            interp = np.einsum("sm,sm->s", w_hi, fz)
-            # long and whole pieces: Kronrod value, error estimated against the interpolant
-            vk = (f[:(nl + nw) * XK.size].reshape(nl + nw, XK.size) @ WK) * scale[kw]
-            vals[row, kw] = vk
-            errs[row, kw] = np.abs(vk - interp[kw])
-            # short pieces: the interpolant, against the degree-6 one
-            vals[row, sh] = interp[sh]
-            errs[row, sh] = np.abs(interp[sh] - np.einsum("sm,sm->s", w_lo[sh], fz[sh, 1:-1]))
+        if poly.any():
+            k = np.nonzero(poly)[0]
+            vals[:, k] = np.stack(evalf.integrals(lid[k], a[k], b[k])) * width[lid[k]]
+        fk = np.nonzero(~poly)[0]
+        if fk.size:
+            # pieces on the field: integrals of the interpolants at the line's samples ZS
+            lf = lid[fk]
+            LV = legendre_vander
+            dz = 0.5 * (LV(2.0 * (b[fk] - t0[lf]) / span[fk] - 1.0, ZS.size)
+                        - LV(2.0 * (a[fk] - t0[lf]) / span[fk] - 1.0, ZS.size))
+            w_hi = np.zeros((lid.size, ZS.size))
+            w_lo = np.zeros((lid.size, ZS.size - 2))
+            w_hi[fk] = (dz @ M_HI) * (span[fk] * width[lf])[:, None]
+            w_lo[fk] = (dz[:, :ZS.size - 1] @ M_LO) * (span[fk] * width[lf])[:, None]
+            scale = (b - a) * width[lid]
+            for row, (f, fz) in enumerate(((J, S["J"][lid]), (KJ, S["KJ"][lid]))):
+                interp = np.einsum("sm,sm->s", w_hi, fz)
+                # long and whole pieces: Kronrod value, error estimated against the interpolant
+                vk = (f[:(nl + nw) * XK.size].reshape(nl + nw, XK.size) @ WK) * scale[kw]
+                vals[row, kw] = vk
+                errs[row, kw] = np.abs(vk - interp[kw])
+                # short pieces: the interpolant, against the degree-6 one
+                vals[row, sh] = interp[sh]
+                errs[row, sh] = np.abs(interp[sh] - np.einsum("sm,sm->s", w_lo[sh], fz[sh, 1:-1]))
         # per piece: |K| J, max(K,0) J, max(-K,0) J, then J into its class column
         P = np.zeros((lid.size, N_LINE_Q))
         Pe = np.zeros((lid.size, N_LINE_Q))
