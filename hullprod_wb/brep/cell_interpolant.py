@@ -75,11 +75,14 @@ def monomial_matrix(deg):
 
 
 def horner(C, z):
-    """sum_j C[:, j] z^j, (n,), for coefficient rows C (n, d + 1) and z (n,)."""
-    acc = C[:, -1].copy()
+    """sum_j C[:, j] z^j for coefficient rows C (n, d + 1) and z (n,) or (n, m) (row i of z
+    with row i of C); the shape of z."""
+    z = np.asarray(z, dtype=float)
+    ext = (slice(None),) + (None,) * (z.ndim - 1)
+    acc = np.zeros(z.shape) + C[:, -1][ext]
     for j in range(C.shape[1] - 2, -1, -1):
         acc *= z
-        acc += C[:, j]
+        acc += C[:, j][ext]
     return acc
 
 
@@ -103,6 +106,10 @@ def antiderivative(C):
 #: Most safeguarded Newton steps for a crossing on a segment's series (one Horner pair a
 #: step for the brackets still open; a simple root needs about five).
 NEWTON_STEPS = 60
+#: Samples of a window, and Newton steps on the derivative after them, for the least value
+#: of a segment's series over the window (SegmentField.window_min).
+WINDOW_SAMPLES = 17
+WINDOW_STEPS = 4
 
 
 def cell_values(C, cells, cell, sig, t):
@@ -244,3 +251,28 @@ class SegmentField:
         za, zb = self.local(a, seg), self.local(b, seg)
         h = 0.5 * (self.x1[seg] - self.x0[seg])
         return h * (horner(AJ, zb) - horner(AJ, za)), h * (horner(AKJ, zb) - horner(AKJ, za))
+
+    def window_min(self, row, offset, sign, x0, x1):
+        """Least value (k,) over [x0, x1] (k,) of sign (series row - offset) (all (k,)) on every
+        segment (all using the interpolant): the least of WINDOW_SAMPLES equally spaced
+        values, polished by WINDOW_STEPS Newton steps on the derivative kept in the window."""
+        k = np.arange(self.power.shape[0])
+        C = self.power[k, row] * sign[:, None]
+        C[:, 0] -= sign * offset
+        D1 = C[:, 1:] * np.arange(1, C.shape[1])
+        D2 = D1[:, 1:] * np.arange(1, D1.shape[1])
+        za, zb = self.local(x0, k), self.local(x1, k)
+        lo, hi = np.minimum(za, zb), np.maximum(za, zb)
+        Z = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, WINDOW_SAMPLES)[None, :]
+        F = horner(C, Z)
+        j = np.argmin(F, 1)
+        z, best = Z[k, j], F[k, j]
+        for _ in range(WINDOW_STEPS):
+            d1, d2 = horner(D1, z), horner(D2, z)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                zn = np.clip(z - d1 / d2, lo, hi)
+            zn = np.where((d2 > 0.0) & np.isfinite(zn), zn, z)
+            fn = horner(C, zn)
+            better = fn < best
+            z, best = np.where(better, zn, z), np.where(better, fn, best)
+        return best

@@ -1008,7 +1008,8 @@ class _Integrator:
 
         With h = s g_q (s the sign making h < 0 between the closest crossing pair on the
         line with more crossings), phi(sigma) = min of h along the line over a window about
-        that pair (_parabolic_min) has a simple root at the tangency, found by
+        that pair (on an interpolant's line from its series, SegmentField.window_min; on the
+        field by _parabolic_min) has a simple root at the tangency, found by
         solve_bracketed. Brackets where phi does not change sign, and roots at a piece's
         end (within EDGE_XI of its width), give no cut."""
         p, j, q = np.nonzero(count[:, :-1, :] != count[:, 1:, :])
@@ -1034,12 +1035,26 @@ class _Integrator:
         sm = sig[p, more]
         sign = -np.sign(level(sm, 0.5 * (ta + tb), np.arange(p.size)))
 
+        use = self._interp["use"][cell]
+        row, offset = LEVEL_ROW[q], self._level_offsets()[q]
+
         def phi(sg, i):
-            """min over the window of sign * g_q on the lines sg."""
-            x3 = np.stack((w0[i], 0.5 * (ta + tb)[i], w1[i]), 1)
-            f3 = np.repeat(sign[i], 3) * level(np.repeat(sg, 3), x3.ravel(), np.repeat(i, 3))
-            f3 = f3.reshape(-1, 3)
-            return _parabolic_min(lambda t, k: sign[i[k]] * level(sg[k], t, i[k]), x3, f3)[1]
+            """min over the window of sign * g_q on the lines sg: on an interpolant's line
+            from its series in t (SegmentField.window_min), else by parabolic steps."""
+            out = np.empty(i.size)
+            k = np.nonzero(use[i])[0]
+            if k.size:
+                ik = i[k]
+                seg = SegmentField(self._interp["C"], self._interp["use"], cells, cell[ik], sg[k], "t", None)
+                out[k] = seg.window_min(row[ik], offset[ik], sign[ik], w0[ik], w1[ik])
+            k = np.nonzero(~use[i])[0]
+            if k.size:
+                ik, sk = i[k], sg[k]
+                x3 = np.stack((w0[ik], 0.5 * (ta + tb)[ik], w1[ik]), 1)
+                f3 = np.repeat(sign[ik], 3) * level(np.repeat(sk, 3), x3.ravel(), np.repeat(ik, 3))
+                out[k] = _parabolic_min(lambda t, m: sign[ik[m]] * level(sk[m], t, ik[m]), x3,
+                                        f3.reshape(-1, 3))[1]
+            return out
 
         so = sig[p, np.where(more == j, j + 1, j)]
         ar = np.arange(p.size)
