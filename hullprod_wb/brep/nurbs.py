@@ -341,8 +341,14 @@ class NurbsSurfaceData:
         nv = self.poles.shape[1]
         su = find_spans(self.uknots, p, u)
         sv = find_spans(self.vknots, q, v)
-        bu = basis_derivatives(self.uknots, p, su, u, order)  # (order+1, p+1, n)
-        bv = basis_derivatives(self.vknots, q, sv, v, order)  # (order+1, q+1, n)
+        if p == q:  # both directions in one pass (the recurrences run per point)
+            nu = len(self.uknots)
+            b = basis_derivatives(np.concatenate((self.uknots, self.vknots)), p,
+                                  np.concatenate((su, sv + nu)), np.concatenate((u, v)), order)
+            bu, bv = b[:, :, :u.size], b[:, :, u.size:]
+        else:
+            bu = basis_derivatives(self.uknots, p, su, u, order)  # (order+1, p+1, n)
+            bv = basis_derivatives(self.vknots, q, sv, v, order)  # (order+1, q+1, n)
         base = (su - p) * nv + (sv - q)
         offs = np.arange(p + 1)[:, None] * nv + np.arange(q + 1)[None, :]
         ctrl = np.take(self._pw_t, offs[:, :, None] + base[None, None, :], axis=1)  # (dim, p+1, q+1, n)
