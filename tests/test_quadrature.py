@@ -584,3 +584,11 @@ def test_segment_series_roots_and_exact_integrals():
         za, zb = pa[k] - 1.0, pb[k] - 1.0
         assert IJ[k] == pytest.approx(poly.polyval(zb, A) - poly.polyval(za, A), rel=1e-12, abs=1e-13)
         assert IKJ[k] == pytest.approx(poly.polyval(zb, B) - poly.polyval(za, B), rel=1e-11, abs=1e-13)
+    # the least value over a window (tangency search): sign (H - offset) on every segment
+    seg.power[:, 2] = 0.0
+    seg.power[:, 2, :3] = [0.04 - 0.01, -0.4, 1.0]  # (z - 0.2)^2 - 0.01
+    low = seg.window_min(np.full(3, 2), np.array([0.0, 0.5, 0.0]), np.array([1.0, 1.0, -1.0]),
+                         x(np.array([-0.5, -0.5, -0.5])), x(np.array([0.9, 0.9, 0.9])))
+    assert low[0] == pytest.approx(-0.01, abs=1e-14)
+    assert low[1] == pytest.approx(-0.51, abs=1e-14)
+    assert low[2] == pytest.approx(-((0.9 - 0.2) ** 2 - 0.01), abs=1e-14)  # -p: least at the far end

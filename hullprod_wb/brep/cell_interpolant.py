@@ -86,6 +86,19 @@ def horner(C, z):
     return acc
 
 
+def horner2(C, z):
+    """Values, first and second derivatives (three (n,) arrays) at z (n,) of the power
+    series with coefficient rows C (n, d + 1), in one Horner pass."""
+    p = C[:, -1].copy()
+    d1 = np.zeros_like(p)
+    d2 = np.zeros_like(p)
+    for j in range(C.shape[1] - 2, -1, -1):
+        d2 = d2 * z + 2.0 * d1
+        d1 = d1 * z + p
+        p = p * z + C[:, j]
+    return p, d1, d2
+
+
 def product_matrix(deg):
     """(( deg + 1)^2, 2 deg + 1) 0/1 matrix S: the outer product a_i b_j of two power
     series of degree deg, flattened, times S gives the coefficients of their product."""
@@ -259,8 +272,6 @@ class SegmentField:
         k = np.arange(self.power.shape[0])
         C = self.power[k, row] * sign[:, None]
         C[:, 0] -= sign * offset
-        D1 = C[:, 1:] * np.arange(1, C.shape[1])
-        D2 = D1[:, 1:] * np.arange(1, D1.shape[1])
         za, zb = self.local(x0, k), self.local(x1, k)
         lo, hi = np.minimum(za, zb), np.maximum(za, zb)
         Z = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, WINDOW_SAMPLES)[None, :]
@@ -268,11 +279,10 @@ class SegmentField:
         j = np.argmin(F, 1)
         z, best = Z[k, j], F[k, j]
         for _ in range(WINDOW_STEPS):
-            d1, d2 = horner(D1, z), horner(D2, z)
+            f, d1, d2 = horner2(C, z)
+            better = f < best
+            best = np.where(better, f, best)
             with np.errstate(divide="ignore", invalid="ignore"):
                 zn = np.clip(z - d1 / d2, lo, hi)
-            zn = np.where((d2 > 0.0) & np.isfinite(zn), zn, z)
-            fn = horner(C, zn)
-            better = fn < best
-            z, best = np.where(better, zn, z), np.where(better, fn, best)
-        return best
+            z = np.where((d2 > 0.0) & np.isfinite(zn), zn, z)
+        return np.minimum(best, horner(C, z))
