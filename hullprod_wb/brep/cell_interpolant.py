@@ -10,6 +10,8 @@ was not fitted, at the parent's own o x o Gauss nodes. The adaptive cubature
 (hullprod_wb.brep.quadrature) integrates a mixed cell on lines of its interpolant when that
 error is small enough, instead of evaluating the surface along the lines.
 """
+import functools
+
 import numpy as np
 
 from .gauss_rules import legendre_vander
@@ -61,9 +63,11 @@ def _local(x, a, b):
     return 2.0 * (x - a) / (b - a) - 1.0
 
 
+@functools.lru_cache(maxsize=None)
 def monomial_matrix(deg):
     """(deg + 1, deg + 1) matrix M with P_k(z) = sum_j M[k, j] z^j (Legendre polynomials
-    in powers of z, from k P_k = (2k - 1) z P_(k-1) - (k - 1) P_(k-2))."""
+    in powers of z, from k P_k = (2k - 1) z P_(k-1) - (k - 1) P_(k-2)); read-only, one per
+    degree."""
     M = np.zeros((deg + 1, deg + 1))
     M[0, 0] = 1.0
     if deg > 0:
@@ -71,6 +75,7 @@ def monomial_matrix(deg):
     for k in range(2, deg + 1):
         M[k, 1:] = (2 * k - 1) / k * M[k - 1, :-1]
         M[k] -= (k - 1) / k * M[k - 2]
+    M.flags.writeable = False
     return M
 
 
@@ -99,12 +104,14 @@ def horner2(C, z):
     return p, d1, d2
 
 
+@functools.lru_cache(maxsize=None)
 def product_matrix(deg):
     """(( deg + 1)^2, 2 deg + 1) 0/1 matrix S: the outer product a_i b_j of two power
     series of degree deg, flattened, times S gives the coefficients of their product."""
     i, j = np.divmod(np.arange((deg + 1) ** 2), deg + 1)
     S = np.zeros(((deg + 1) ** 2, 2 * deg + 1))
     S[np.arange(S.shape[0]), i + j] = 1.0
+    S.flags.writeable = False
     return S
 
 
