@@ -9,6 +9,12 @@ of the grid nodes; its condition number is 122 for o = 5). Its error is measured
 was not fitted, at the parent's own o x o Gauss nodes. The adaptive cubature
 (hullprod_wb.brep.quadrature) integrates a mixed cell on lines of its interpolant when that
 error is small enough, instead of evaluating the surface along the lines.
+
+On a line of the cell (a segment, SegmentField) the interpolant is a Legendre series of one
+variable; it is also kept in powers of the segment's local coordinate z in [-1, 1], on which
+level crossings are refined by safeguarded Newton steps, J and K J are integrated exactly
+(antiderivatives of the series and of their product) and least values over windows are found
+(the tangency search of the cubature).
 """
 import functools
 
@@ -106,7 +112,7 @@ def horner2(C, z):
 
 @functools.lru_cache(maxsize=None)
 def product_matrix(deg):
-    """(( deg + 1)^2, 2 deg + 1) 0/1 matrix S: the outer product a_i b_j of two power
+    """((deg + 1)^2, 2 deg + 1) 0/1 matrix S: the outer product a_i b_j of two power
     series of degree deg, flattened, times S gives the coefficients of their product."""
     i, j = np.divmod(np.arange((deg + 1) ** 2), deg + 1)
     S = np.zeros(((deg + 1) ** 2, 2 * deg + 1))
