@@ -886,20 +886,22 @@ class _Integrator:
             LV = legendre_vander
             dz = 0.5 * (LV(2.0 * (b[fk] - t0[lf]) / span[fk] - 1.0, ZS.size)
                         - LV(2.0 * (a[fk] - t0[lf]) / span[fk] - 1.0, ZS.size))
-            w_hi = np.zeros((lid.size, ZS.size))
-            w_lo = np.zeros((lid.size, ZS.size - 2))
-            w_hi[fk] = (dz @ M_HI) * (span[fk] * width[lf])[:, None]
-            w_lo[fk] = (dz[:, :ZS.size - 1] @ M_LO) * (span[fk] * width[lf])[:, None]
-            scale = (b - a) * width[lid]
-            for row, (f, fz) in enumerate(((J, S["J"][lid]), (KJ, S["KJ"][lid]))):
+            w_hi = (dz @ M_HI) * (span[fk] * width[lf])[:, None]
+            w_lo = (dz[:, :ZS.size - 1] @ M_LO) * (span[fk] * width[lf])[:, None]
+            at = np.empty(lid.size, int)  # row in the field pieces' arrays
+            at[fk] = np.arange(fk.size)
+            ikw, ish = at[kw], at[sh]
+            scale = (b[kw] - a[kw]) * width[lid[kw]]
+            for row, (f, Z) in enumerate(((J, S["J"]), (KJ, S["KJ"]))):
+                fz = Z[lf]
                 interp = np.einsum("sm,sm->s", w_hi, fz)
                 # long and whole pieces: Kronrod value, error estimated against the interpolant
-                vk = (f[:(nl + nw) * XK.size].reshape(nl + nw, XK.size) @ WK) * scale[kw]
+                vk = (f[:(nl + nw) * XK.size].reshape(nl + nw, XK.size) @ WK) * scale
                 vals[row, kw] = vk
-                errs[row, kw] = np.abs(vk - interp[kw])
+                errs[row, kw] = np.abs(vk - interp[ikw])
                 # short pieces: the interpolant, against the degree-6 one
-                vals[row, sh] = interp[sh]
-                errs[row, sh] = np.abs(interp[sh] - np.einsum("sm,sm->s", w_lo[sh], fz[sh, 1:-1]))
+                vals[row, sh] = interp[ish]
+                errs[row, sh] = np.abs(interp[ish] - np.einsum("sm,sm->s", w_lo[ish], fz[ish, 1:-1]))
         # per piece: |K| J, max(K,0) J, max(-K,0) J, then J into its class column
         P = np.zeros((lid.size, N_LINE_Q))
         Pe = np.zeros((lid.size, N_LINE_Q))
