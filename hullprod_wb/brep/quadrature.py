@@ -409,6 +409,8 @@ class _Integrator:
                  v_breaks, progress):
         self.f = _Field(field)
         self.tau_H, self.tau_K = tau_H, tau_K
+        # constants the level functions subtract from their field row (LEVEL_ROW)
+        self.level_offset = np.array([tau_K, -tau_K, tau_H, -tau_H, 0.0])
         self.order, self.rtol = order, rtol
         self.class_max_depth = class_max_depth
         self.lines = True
@@ -440,8 +442,10 @@ class _Integrator:
     # -- evaluation ---------------------------------------------------------------------------
 
     def _thresholds(self, K, H):
-        """(n, 5) level functions K - tau_K, K + tau_K, H - tau_H, H + tau_H, K."""
-        return np.stack((K - self.tau_K, K + self.tau_K, H - self.tau_H, H + self.tau_H, K), -1)
+        """(n, 5) level functions K - tau_K, K + tau_K, H - tau_H, H + tau_H, K: the field of
+        LEVEL_ROW minus level_offset."""
+        rows = (None, K, H)
+        return np.stack([rows[r] for r in LEVEL_ROW], -1) - self.level_offset
 
     def _integrands(self, J, K, H, reg):
         """(..., 9) integrands of QUANTITIES at samples (...)."""
@@ -811,17 +815,13 @@ class _Integrator:
         poly = evalf.use[li]
         i = np.nonzero(poly)[0]
         if i.size:
-            roots[i] = evalf.roots(li[i], LEVEL_ROW[q[i]], self._level_offsets()[q[i]], a[i], b[i],
+            roots[i] = evalf.roots(li[i], LEVEL_ROW[q[i]], self.level_offset[q[i]], a[i], b[i],
                                    fa[i], fb[i], 2.0 * CROSSING_RTOL)
         i = np.nonzero(~poly)[0]
         if i.size:
             roots[i] = solve_bracketed(lambda x, k: g(x, i[k], li, q), a[i], b[i], fa[i], fb[i],
                                        CROSSING_RTOL * (x1 - x0)[li[i]], maxiter=CROSSING_STEPS)
         return li, q, roots, S
-
-    def _level_offsets(self):
-        """(5,) constants the level functions subtract from their field (see _thresholds)."""
-        return np.array([self.tau_K, -self.tau_K, self.tau_H, -self.tau_H, 0.0])
 
     def _line_values(self, cell, pid, sig, t0, t1):
         """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)), in the mixed
@@ -1038,7 +1038,7 @@ class _Integrator:
         sign = -np.sign(level(sm, 0.5 * (ta + tb), np.arange(p.size)))
 
         use = self._interp["use"][cell]
-        row, offset = LEVEL_ROW[q], self._level_offsets()[q]
+        row, offset = LEVEL_ROW[q], self.level_offset[q]
 
         def phi(sg, i):
             """min over the window of sign * g_q on the lines sg: on an interpolant's line
