@@ -1,7 +1,7 @@
 #!/bin/bash
 # Install what HullProd needs on Debian 12 (run as root; safe to run again):
 # Debian's FreeCAD, numpy, scipy, matplotlib, pytest, Xvfb, Dask; trimesh from PyPI for
-# Debian's Python; and the workbench linked into FreeCAD's user Mod folders.
+# Debian's Python; the workbench linked into FreeCAD's user Mod folders and byte-compiled.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 PY=/usr/bin/python3
@@ -32,6 +32,9 @@ for mod in "$HOME/.FreeCAD/Mod" "${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD/Mo
   mkdir -p "$mod"
   ln -sfn "$here" "$mod/HullProd"
 done
+# Byte-compile the package once, as pip does on install: commands then read the cached
+# .pyc files instead of compiling every module (also where PYTHONDONTWRITEBYTECODE is set).
+$PY -m compileall -q "$here/hullprod_wb"
 $PY - <<PYEOF
 import sys
 sys.path.append('/usr/lib/freecad-python3/lib')

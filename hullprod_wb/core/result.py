@@ -9,18 +9,31 @@ from .constants import CLASS_METRICS, CLASS_NAMES, METRIC_LABELS, METRICS, SCHEM
 from .validity import STATUS_MEANING
 
 
+def dist_version(name):
+    """Version of an installed distribution from its metadata folder's name
+    (name-VERSION.dist-info or .egg-info on sys.path), without importing it (trimesh: 0.15 s)
+    or importlib.metadata (about 40 ms); importlib.metadata where the name does not tell.
+    None when not installed."""
+    import glob
+    import sys
+    for folder in sys.path:
+        for meta in sorted(glob.glob(os.path.join(folder or ".", name + "-*.*-info"))):
+            stem = os.path.basename(meta).rsplit(".", 1)[0][len(name) + 1:]
+            version = stem.split("-py")[0]
+            if version and version[0].isdigit():
+                return version
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return None
+
+
 def software_versions():
     """Versions of this package and of what it computes with (None where absent)."""
     import numpy
     from .. import __version__
     from ..freecad_env import versions
-    from importlib.metadata import PackageNotFoundError, version
-
-    def dist_version(name):  # from the distribution's metadata: no import (trimesh: 0.15 s)
-        try:
-            return version(name)
-        except PackageNotFoundError:
-            return None
     out = {"package": "hullprod_wb", "version": __version__, "python": platform.python_version(),
            "numpy": numpy.__version__, "scipy": dist_version("scipy"), "trimesh": dist_version("trimesh")}
     out.update(versions())
