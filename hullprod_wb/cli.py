@@ -51,11 +51,14 @@ def add_common_options(p):
     q.add_argument("--order", type=int, default=None, help="Gauss-Legendre order per direction (default 5)")
     q.add_argument("--rtol", type=float, default=None, help="local relative tolerance (default 1e-4)")
     q.add_argument("--max-depth", type=int, default=None, help="maximum refinement depth (default 5)")
+    q.add_argument("--jobs", type=int, default=None,
+                   help="processes integrating the faces in parallel (default: the available CPUs, "
+                        "or $HULLPROD_JOBS; the values do not depend on it)")
 
 
 def quadrature_options(args):
-    return {k: v for k, v in (("order", args.order), ("rtol", args.rtol), ("max_depth", args.max_depth))
-            if v is not None}
+    return {k: v for k, v in (("order", args.order), ("rtol", args.rtol), ("max_depth", args.max_depth),
+                              ("jobs", getattr(args, "jobs", None))) if v is not None}
 
 
 def build_parser(command=None):

@@ -30,7 +30,8 @@ START_METHODS = ("spawn", "forkserver", "fork")
 #: for its workers. The thread count changes the order of numpy's reductions (and so the
 #: last bits of the sums), so equal settings make local and Dask results bit-identical; it
 #: also keeps N processes from running N x cores threads.
-WORKER_ENVIRON = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+WORKER_ENVIRON = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+                  "HULLPROD_JOBS": "1"}  # one case per worker: its faces in the worker itself
 
 CRASH_MESSAGE = ("the worker process died while assessing this case (a crash in the geometry "
                  "kernel or out of memory); it was isolated by rerunning it alone")

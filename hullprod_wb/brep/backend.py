@@ -6,6 +6,9 @@ trimmed domain (eq:brep_surface_integral), graded refinement and a nested-neighb
 audit at degenerate points, and per-metric validity (section 4.3).
 """
 import time
+from dataclasses import dataclass
+from dataclasses import field as dc_field
+from typing import Optional
 
 import numpy as np
 
@@ -22,6 +25,7 @@ from . import singular
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_field import FaceField
+from .face_pool import map_faces, resolve_jobs
 from .loading import load_brep
 from .provenance import shape_provenance
 from .quadrature import QUANTITIES, integrate, patch_rule
@@ -133,17 +137,50 @@ class CombinedQuadrature:
                 "parts": [p.to_dict() for p in self.parts]}
 
 
+@dataclass
+class DomainSummary:
+    """What the records say of a face's trimmed domain (kept when the domain is dropped)."""
+
+    is_rectangle: bool
+    fallback: Optional[str] = None
+    repairs: list = dc_field(default_factory=list)
+
+
 class FaceAssessment:
-    """Everything computed for one face."""
+    """Everything computed for one face: its number, field and trimmed domain (OpenCascade
+    objects until detach()), knot and neighbourhood lines, degenerate set, neighbourhood
+    quadrants, quadrature, audits, and the cross-checks (None until face_cross_checks)."""
 
     def __init__(self, number, ff, domain, breaks, degenerate, quadrants, quad, audits):
         self.number, self.ff, self.domain = number, ff, domain
         self.u_breaks, self.v_breaks = breaks  # knot lines and neighbourhood box lines
         self.degenerate, self.quadrants, self.quad, self.audits = degenerate, quadrants, quad, audits
+        self.surface_type = type(ff.face.Surface).__name__
+        self.kind = ff.kind
+        self.cross_check = None
 
     @property
     def result(self):
         return self.quad
+
+    def detach(self):
+        """Drop the face field and the trimmed domain (OpenCascade objects), keeping what the
+        records need, so that the assessment can leave a worker process. Returns self."""
+        d = self.domain
+        self.domain = DomainSummary(bool(d.is_rectangle), getattr(d, "fallback", None),
+                                    list(getattr(d, "repairs", None) or []))
+        self.ff = None
+        return self
+
+
+def face_cross_checks(f):
+    """Cross-checks of one assessed face (needs its field and domain): derivatives and H, K
+    against OpenCascade at interior points, and the independent fixed-rule area."""
+    t = time.perf_counter()
+    rec = {"face": f.number, "occ_pointwise_max_relative": cross_check_occ(f.ff, f.domain)}
+    rec["area"] = area_cross_check(f.ff, f.domain, f.u_breaks, f.v_breaks, f.result.values["A"])
+    rec["seconds"] = time.perf_counter() - t
+    return rec
 
 
 #: Deflection of the 3-D edge polygons of a fallback domain, relative to the face's size.
@@ -171,6 +208,16 @@ def polygon_domain(face):
                 curves.append(NurbsCurve2D.line(a, b))
     domain = TrimmedDomain.from_curves(curves)
     return domain
+
+
+def patch_count(face):
+    """Knot-span patches of a face's surface (1 for other surface types): the order in which
+    faces are handed to worker processes, largest first."""
+    surf = face.Surface
+    try:
+        return max(1, (len(surf.getUKnots()) - 1) * (len(surf.getVKnots()) - 1))
+    except Exception:  # not a B-spline surface
+        return 1
 
 
 def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
@@ -254,7 +301,7 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
         else:
             status = Status.VALID
         rows.append({
-            "face": f.number, "surface_type": type(f.ff.face.Surface).__name__, "evaluation": f.ff.kind,
+            "face": f.number, "surface_type": f.surface_type, "evaluation": f.kind,
             "area": r.values["A"], "valid_area": r.values["A_valid"],
             "area_share": r.values["A_valid"] / A_tot if A_tot > 0 else None,
             "K_share": r.values["int_abs_K"] / K_tot if K_tot > 0 else None,
@@ -394,14 +441,16 @@ def refinement_history(faces, lref):
 
 def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, with_fields=True,
                 progress=None, order=None, rtol=None, max_depth=None, audit=True, display_deflection=None,
-                cross_checks=True):
+                cross_checks=True, jobs=None):
     """Signature of a BRep (file path, Part.Shape or FreeCAD object) by exact quadrature.
 
     lref: reference length in the shape's units (None: automatic); faces: 1-based face
     numbers; order, rtol, max_depth: quadrature settings (default 5, 1e-4, 5, rechecked at
     max_depth + 1); audit: nested-neighbourhood audit at degenerate points;
     display_deflection: tessellation of the display-only fields (default 5e-3 of the
-    bounding-box diagonal; 2e-2 when with_fields is False).
+    bounding-box diagonal; 2e-2 when with_fields is False); cross_checks: derivatives
+    against OpenCascade and the independent area per face; jobs: worker processes for the
+    faces (None: automatic, see face_pool.resolve_jobs; the values do not depend on it).
     """
     progress = progress or null_progress
     timings = {}
@@ -430,14 +479,31 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     t = time.perf_counter()
     areas = np.array([max(f.Area, 0.0) for _, f in inp.faces])
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
-    done = 0.0
-    results = []
-    for (number, face), w in zip(inp.faces, weights):
-        def sub(fr, msg="", _d=done, _w=w, _n=number):
-            progress(0.05 + 0.9 * (_d + _w * fr), "face %d: %s" % (_n, msg))
-        sub(0.0, "integrating")
-        results.append(assess_face(number, face, th, ref.value, opts, sub))
-        done += w
+    n_jobs = resolve_jobs(jobs, len(inp.faces))
+    done = [0.0, 0]  # weight and number of the faces finished
+
+    def face_work(i):
+        number, face = inp.faces[i]
+        if n_jobs == 1:  # progress inside the face; from workers only as faces finish
+            def sub(fr, msg=""):
+                progress(0.05 + 0.9 * (done[0] + weights[i] * fr), "face %d: %s" % (number, msg))
+            sub(0.0, "integrating")
+        else:
+            sub = null_progress
+        f = assess_face(number, face, th, ref.value, opts, sub)
+        if cross_checks:
+            f.cross_check = face_cross_checks(f)
+        return f.detach()
+
+    def finished(i, f):
+        done[0] += weights[i]
+        done[1] += 1
+        progress(0.05 + 0.9 * done[0], "face %d done (%d of %d faces)" % (f.number, done[1], len(inp.faces)))
+
+    if n_jobs > 1:
+        progress(0.05, "integrating %d faces in %d processes" % (len(inp.faces), n_jobs))
+    results = map_faces(face_work, len(inp.faces), n_jobs, cost=[patch_count(f) for _, f in inp.faces],
+                        on_done=finished, labels=["Face%d" % n for n, _ in inp.faces])
     timings["quadrature"] = time.perf_counter() - t
 
     integrals = SurfaceIntegrals.zero()
@@ -462,12 +528,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     prov["degenerate_points"] = [{"face": f.number, **f.degenerate.to_dict()} for f in results if f.degenerate]
     prov["quadrature"] = [{"face": f.number, **f.quad.to_dict()} for f in results]
     if cross_checks:
-        prov["cross_checks"] = []
-        for f in results:
-            rec = {"face": f.number, "occ_pointwise_max_relative": cross_check_occ(f.ff, f.domain)}
-            rec["area"] = area_cross_check(f.ff, f.domain, f.u_breaks, f.v_breaks,
-                                           f.result.values["A"])
-            prov["cross_checks"].append(rec)
+        prov["cross_checks"] = [f.cross_check for f in results]
     timings["provenance"] = time.perf_counter() - t
 
     fields = display_fields(samples, ref.value, th) if with_fields else None
@@ -478,7 +539,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     progress(1.0, "done: %d quadrature points" % points)
     return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                       validity=validity, fields=fields, provenance=prov,
-                      options={**opts, "recheck_depth": opts["max_depth"] + 1,
+                      options={**opts, "recheck_depth": opts["max_depth"] + 1, "jobs": n_jobs,
                                "display_deflection": deflection, "points_evaluated": points},
                       timings=timings, warnings=warnings)
 

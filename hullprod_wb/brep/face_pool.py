@@ -1,0 +1,128 @@
+"""Faces of a BRep assessment integrated in parallel worker processes.
+
+The faces of a shape are integrated independently of each other (backend.assess_face: one
+face's adaptive tree never looks at another's), so running them in several processes gives
+the same numbers, to the bit, as running them one after the other; only the wall time
+changes. Workers are forked from the assessing process and inherit the shape that is
+already loaded (no file is read twice and no OpenCascade object is pickled); each returns
+its face's record as plain data. Faces are handed out largest first (by their number of
+surface patches), so the longest face does not start last.
+
+Forking is used only where it is safe: a POSIX system with the fork start method, called
+from the main thread of a process that is not itself a pool worker, and not inside the
+FreeCAD GUI (its render and Qt threads). Elsewhere, and with jobs=1, the faces run in this
+process with progress inside each face.
+"""
+import os
+import threading
+
+from ..core.errors import InputError
+
+#: Environment variable that sets the automatic number of worker processes (batch workers
+#: set it to 1: they already run one case per CPU).
+JOBS_ENV = "HULLPROD_JOBS"
+
+# the work of the running map, set in the parent before its workers are forked
+_WORK = None
+
+
+def fork_is_safe():
+    """True where worker processes may be forked from this process (see module doc)."""
+    import multiprocessing
+    if os.name != "posix" or "fork" not in multiprocessing.get_all_start_methods():
+        return False
+    if threading.current_thread() is not threading.main_thread():
+        return False
+    if multiprocessing.current_process().daemon:
+        return False
+    try:
+        import sys
+        FreeCAD = sys.modules.get("FreeCAD")
+        if FreeCAD is not None and getattr(FreeCAD, "GuiUp", False):
+            return False
+    except Exception:  # a half-initialised FreeCAD: do not fork
+        return False
+    return True
+
+
+def available_cpus():
+    """CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def resolve_jobs(jobs, n_faces):
+    """Worker processes for n_faces faces: jobs (an int >= 1), or None for automatic (the
+    value of $HULLPROD_JOBS if set, else the available CPUs; 1 where forking is not safe),
+    never more than the faces. Returns an int >= 1."""
+    if jobs is None:
+        env = os.environ.get(JOBS_ENV, "").strip()
+        if env:
+            try:
+                jobs = int(env)
+            except ValueError:
+                raise InputError("%s must be a positive integer, got %r" % (JOBS_ENV, env)) from None
+        else:
+            jobs = available_cpus() if fork_is_safe() else 1
+    try:
+        jobs = int(jobs)
+    except (TypeError, ValueError):
+        raise InputError("jobs must be a positive integer, got %r" % (jobs,)) from None
+    if jobs < 1:
+        raise InputError("jobs must be a positive integer, got %r" % (jobs,))
+    if jobs > 1 and not fork_is_safe():
+        jobs = 1
+    return max(1, min(jobs, n_faces))
+
+
+def _run_one(index):
+    return index, _WORK(index)
+
+
+def map_faces(work, n, jobs, cost=None, on_done=None, labels=None):
+    """[work(0), ..., work(n - 1)] with jobs worker processes (resolve_jobs first).
+
+    work(i) returns a picklable result; cost (n,) orders the hand-out (largest first);
+    on_done(i, result) is called in this process as each finishes. An error raised by work
+    is raised here; a worker that dies (a crash in the geometry kernel) is reported as an
+    InputError naming the items (labels, default their indices) that were still running."""
+    global _WORK
+    results = [None] * n
+    if jobs <= 1 or n <= 1:
+        for i in range(n):
+            results[i] = work(i)
+            if on_done is not None:
+                on_done(i, results[i])
+        return results
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+    order = sorted(range(n), key=lambda i: -(cost[i] if cost is not None else 0.0))
+    _WORK = work
+    try:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+            pending = {pool.submit(_run_one, i): i for i in order}
+            try:
+                while pending:
+                    done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                    for fut in done:
+                        i = pending.pop(fut)
+                        try:
+                            _, results[i] = fut.result()
+                        except BrokenProcessPool:
+                            left = sorted([i] + list(pending.values()))
+                            raise InputError(
+                                "a worker process died while integrating %s (a crash in the "
+                                "geometry kernel or out of memory); run with jobs=1 to see it"
+                                % ", ".join(str(labels[k] if labels else k) for k in left)) from None
+                        if on_done is not None:
+                            on_done(i, results[i])
+            except BaseException:
+                for fut in pending:
+                    fut.cancel()
+                raise
+    finally:
+        _WORK = None
+    return results
