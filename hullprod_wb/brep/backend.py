@@ -448,7 +448,8 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     numbers; order, rtol, max_depth: quadrature settings (default 5, 1e-4, 5, rechecked at
     max_depth + 1); audit: nested-neighbourhood audit at degenerate points;
     display_deflection: tessellation of the display-only fields (default 5e-3 of the
-    bounding-box diagonal; 2e-2 when with_fields is False); cross_checks: derivatives
+    bounding-box diagonal; the automatic L_ref always comes from the nodes of a tessellation
+    at 2e-2 of it, display.SAMPLE_DEFLECTION); cross_checks: derivatives
     against OpenCascade and the independent area per face; jobs: worker processes for the
     faces (None: automatic, see face_pool.resolve_jobs; the values do not depend on it).
     """
@@ -465,14 +466,16 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     t = time.perf_counter()
     face_fields = [(n, FaceField(f)) for n, f in inp.faces]
     size = inp.shape.BoundBox.DiagonalLength
-    deflection = display_deflection or (DISPLAY_DEFLECTION if with_fields else SAMPLE_DEFLECTION) * size
-    # without fields the samples only give the automatic L_ref: OpenCascade's nodes suffice
-    samples = sample_faces(face_fields, deflection) if with_fields else \
-        tessellation_samples([f for _, f in inp.faces], deflection)
-    if samples is None:
-        raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
-    ref = resolve_reference_length(samples["points"], samples["node_area"], explicit=lref,
+    # the automatic L_ref from the nodes of one fixed tessellation, whatever the display
+    lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
+    if lref_samples is None:
+        raise InputError("the faces could not be sampled (no tessellation): empty or invalid faces")
+    ref = resolve_reference_length(lref_samples["points"], lref_samples["node_area"], explicit=lref,
                                    units=inp.units.get("working_unit", ""))
+    deflection = (display_deflection or DISPLAY_DEFLECTION * size) if with_fields else None
+    samples = sample_faces(face_fields, deflection) if with_fields else None
+    if with_fields and samples is None:
+        raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
     th = Thresholds(ref.value, h_f, k_f)
     timings["display_samples"] = time.perf_counter() - t
 
@@ -540,7 +543,8 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                       validity=validity, fields=fields, provenance=prov,
                       options={**opts, "recheck_depth": opts["max_depth"] + 1, "jobs": n_jobs,
-                               "display_deflection": deflection, "points_evaluated": points},
+                               "display_deflection": deflection, "lref_sample_deflection": SAMPLE_DEFLECTION * size,
+                      "points_evaluated": points},
                       timings=timings, warnings=warnings)
 
 

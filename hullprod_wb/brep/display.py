@@ -10,7 +10,8 @@ from ..core.fields import DistributedFields
 
 #: Default display deflection as a fraction of the shape's bounding-box diagonal.
 DISPLAY_DEFLECTION = 5e-3
-#: Coarser deflection when no fields are wanted (the samples then only give the automatic L_ref).
+#: Deflection (same unit) of the tessellation whose nodes give the automatic L_ref, with or
+#: without display fields, so that L_ref never depends on the display settings.
 SAMPLE_DEFLECTION = 2e-2
 
 
@@ -63,8 +64,8 @@ def sample_faces(face_fields, deflection):
 
 def tessellation_samples(faces, deflection):
     """Points (n, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
-    of Part.Face), without fields: all the automatic reference length needs. Returns a dict
-    with points and node_area, or None when no face has a tessellation."""
+    of Part.Face), without fields: all the automatic reference length needs. Returns a dict with points and node_area, or None when
+    no face has a tessellation."""
     points, triangles = [], []
     offset = 0
     for face in faces:
