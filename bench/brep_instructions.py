@@ -3,7 +3,7 @@ earlier revision: a measure that does not move with the load of a shared machine
 
 For each hull, the instructions executed (valgrind --tool=callgrind, its "Collected" count)
 by one process that imports FreeCAD and this package, reads the file and runs
-assess_brep(with_fields=False, cross_checks=False), once with the working tree and once with
+assess_brep(with_fields=False, cross_checks=False, jobs=1), once with the working tree and once with
 REV checked out into a temporary git worktree; and those of a process that only imports and
 reads the file (the fixed part). Prints both counts, their ratio, and the ratio of the
 assessments alone (fixed part subtracted). Needs valgrind (Debian: apt-get install valgrind);
@@ -38,7 +38,9 @@ assert hullprod_wb.__file__.startswith({tree!r}), hullprod_wb.__file__
 from hullprod_wb.brep.backend import assess_brep
 from hullprod_wb.brep.loading import load_brep
 if {assess!r}:
-    assess_brep({path!r}, with_fields=False, cross_checks=False, lref={lref!r})
+    import inspect  # one process: faces not in workers (revisions that have the option)
+    jobs = dict(jobs=1) if "jobs" in inspect.signature(assess_brep).parameters else {{}}
+    assess_brep({path!r}, with_fields=False, cross_checks=False, lref={lref!r}, **jobs)
 else:
     load_brep({path!r})
 """

@@ -152,6 +152,26 @@ def cell_values(C, cells, cell, sig, t):
     return out.T
 
 
+def _restricted_series(C, cell, P, along_t):
+    """Legendre series (m, 3, d + 1) of the tensor series C (n, 3, d + 1, d + 1) restricted to
+    lines of the cells cell (m,) whose fixed coordinate has the Legendre values P (m, d + 1):
+    sum_a P_a C[:, a, b] for lines along t (sigma fixed), sum_b P_b C[:, a, b] along sigma.
+    Consecutive lines of one cell (the lines of a piece) share one gathered copy of its
+    coefficients: runs of equal length are done by one batched product each."""
+    m, d1 = P.shape
+    start = np.nonzero(np.r_[True, cell[1:] != cell[:-1]])[0]
+    length = np.diff(np.r_[start, m])
+    rows = C[cell[start]]  # (runs, 3, d + 1, d + 1)
+    rows = rows.transpose(0, 2, 1, 3) if along_t else rows.transpose(0, 3, 1, 2)
+    rows = rows.reshape(start.size, d1, 3 * d1)  # [run, fixed-direction degree, (field, degree)]
+    out = np.empty((m, 3 * d1))
+    for k in np.unique(length):
+        r = np.nonzero(length == k)[0]
+        lines = (start[r, None] + np.arange(k)[None, :]).ravel()
+        out[lines] = np.matmul(P[lines].reshape(r.size, k, d1), rows[r]).reshape(-1, 3 * d1)
+    return out.reshape(m, 3, d1)
+
+
 class SegmentField:
     """J, K, H, regular along segments of mixed cells, for the cubature's line code.
 
@@ -178,10 +198,7 @@ class SegmentField:
         self.coef = np.zeros((c.size, 3, deg + 1))
         if i.size:
             P = legendre_vander(_local(self.fixed[i], a[i], b[i]), deg)
-            Ci = C[c[i]]
-            if axis != "t":
-                Ci = np.swapaxes(Ci, 2, 3)
-            self.coef[i] = np.matmul(P[:, None, None, :], Ci)[:, :, 0, :]
+            self.coef[i] = _restricted_series(C, c[i], P, axis == "t")
         # the same series in powers of the local coordinate z in [-1, 1] (J, K, H rows)
         self.power = self.coef @ monomial_matrix(deg)
         self._antiderivatives = None
