@@ -162,5 +162,24 @@ def main(argv=None):
         return 1
 
 
+def exit_now(code):
+    """End the command with exit status code. Where FreeCAD is loaded: flush the output, run
+    the atexit functions and leave without the interpreter's teardown of the FreeCAD and
+    OpenCascade libraries (about 0.13 s of every command); else a normal exit."""
+    code = 0 if code is None else int(code)
+    if "FreeCAD" not in sys.modules:
+        sys.exit(code)
+    import atexit
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):  # a closed pipe or stream: nothing more to write
+                pass
+        os._exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    exit_now(main())

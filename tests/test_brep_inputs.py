@@ -138,3 +138,23 @@ def test_automatic_lref_independent_of_fields_and_cached_tessellations():
     after = assess_brep(hull, with_fields=False, cross_checks=False, audit=False)
     assert after.reference_length.value == before.reference_length.value
     assert after.vector == before.vector
+
+
+def test_command_output_complete_after_its_fast_exit(tmp_path):
+    """The command leaves without the interpreter's teardown of FreeCAD (cli.exit_now): what
+    it printed and wrote is complete, and the exit status is kept."""
+    import json
+    from hullprod_wb.examples.builtin import half_wigley_shape
+    step = str(tmp_path / "wigley.step")
+    half_wigley_shape().exportStep(step)
+    p = run_cli("analyze", step, "--json", "--quiet", "--lref", "1")
+    assert p.returncode == 0, p.stderr
+    doc = json.loads(p.stdout)
+    assert doc["signature"]["I_D"] > 0
+    out = tmp_path / "out"
+    p = run_cli("analyze", step, "--quiet", "--lref", "1", "--out", str(out))
+    assert p.returncode == 0, p.stderr
+    assert json.loads((out / "signature.json").read_text())["signature"] == doc["signature"]
+    assert (out / "fields.vtp").read_text().rstrip().endswith("</VTKFile>")
+    p = run_cli("analyze", step, "--lref", "0")
+    assert p.returncode == 2 and "L_ref" in p.stderr
