@@ -592,3 +592,43 @@ def test_segment_series_roots_and_exact_integrals():
     assert low[0] == pytest.approx(-0.01, abs=1e-14)
     assert low[1] == pytest.approx(-0.51, abs=1e-14)
     assert low[2] == pytest.approx(-((0.9 - 0.2) ** 2 - 0.01), abs=1e-14)  # -p: least at the far end
+
+
+def test_tangency_points_by_newton_on_the_cell_interpolant():
+    """A level curve g = c of a cell's interpolant touches a line sigma = const where g = c
+    and dg/dt = 0: Newton on that pair finds the point to rounding; a start whose Newton
+    path leaves the box gives NaN (the caller's bracketed search takes it)."""
+    from hullprod_wb.brep.cell_interpolant import monomial_matrix, tangency_points
+    deg = 9
+    Minv = np.linalg.inv(monomial_matrix(deg))
+    # K(x, y) = (y - 0.2)^2 - 0.5 (x - 0.1) + 0.3 x y^3 in local coordinates (x, y) in [-1, 1]^2:
+    # with c = 0, tangent to x = const where 2 (y - 0.2) + 0.9 x y^2 = 0 and K = 0
+    D = np.zeros((deg + 1, deg + 1))
+    D[0, 0], D[0, 1], D[0, 2] = 0.04 + 0.05, -0.4, 1.0
+    D[1, 0], D[1, 3] = -0.5, 0.3
+    C = np.zeros((1, 3, deg + 1, deg + 1))
+    C[0, 1] = Minv.T @ D @ Minv  # D = M^T C M
+    cells = dict(s0=np.array([0.0]), s1=np.array([4.0]), t0=np.array([1.0]), t1=np.array([2.0]))
+    sig = lambda x: 2.0 * (x + 1.0)
+    t = lambda y: 1.0 + 0.5 * (y + 1.0)
+    one = np.zeros(1, int)
+    r = tangency_points(C, cells, one, np.array([1]), np.zeros(1), np.array([sig(-0.5)]), np.array([sig(0.9)]),
+                        np.array([t(-0.9)]), np.array([t(0.9)]), np.array([sig(0.3)]), np.array([t(0.3)]), 1e-13)
+    x = (r[0] / 2.0) - 1.0
+    # solve the pair independently: y from 2 (y - 0.2) + 0.9 x y^2 = 0, then K = 0
+    from scipy.optimize import fsolve
+    xs, ys = fsolve(lambda p: [(p[1] - 0.2) ** 2 - 0.5 * (p[0] - 0.1) + 0.3 * p[0] * p[1] ** 3,
+                               2 * (p[1] - 0.2) + 0.9 * p[0] * p[1] ** 2], [0.2, 0.2], xtol=1e-13)
+    assert x == pytest.approx(xs, abs=1e-12)
+    # with an offset: K - c = 0 moves the tangency (to x = 0.1 - 2 c, y = 0.2, without the cubic term)
+    D2 = D.copy()
+    D2[1, 3] = 0.0
+    C[0, 2] = Minv.T @ D2 @ Minv
+    c = 0.05
+    r = tangency_points(C, cells, one, np.array([2]), np.array([c]), np.array([sig(-0.5)]), np.array([sig(0.9)]),
+                        np.array([t(-0.9)]), np.array([t(0.9)]), np.array([sig(0.0)]), np.array([t(0.0)]), 1e-13)
+    assert r[0] == pytest.approx(sig(0.1 - 2 * c), abs=1e-12)
+    # a box that excludes the tangency: NaN
+    r = tangency_points(C, cells, one, np.array([2]), np.array([c]), np.array([sig(0.5)]), np.array([sig(0.9)]),
+                        np.array([t(-0.9)]), np.array([t(0.9)]), np.array([sig(0.7)]), np.array([t(0.0)]), 1e-13)
+    assert np.isnan(r[0])

@@ -316,3 +316,59 @@ class SegmentField:
                 zn = np.clip(z - d1 / d2, lo, hi)
             z = np.where((d2 > 0.0) & np.isfinite(zn), zn, z)
         return np.minimum(best, horner(C, z))
+
+
+#: Newton steps for a tangency point of a level curve of a cell's interpolant, and the
+#: last step's largest size in t (local coordinate in [-1, 1]).
+TANGENCY_STEPS = 12
+TANGENCY_YTOL = 1e-9
+
+
+def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol):
+    """Points where the level curve {f_row - offset = 0} of the interpolants C (n, 3, d + 1,
+    d + 1) of the cells cell (k,) is tangent to a line sigma = const: g = 0 and dg/dt = 0,
+    by Newton's method on that pair of polynomial equations (the interpolant in powers of
+    the cell's local coordinates, D = M^T C M with M = monomial_matrix), started at
+    (s_start, t_start) and kept in the boxes [s_lo, s_hi] x [t_lo, t_hi] (patch coordinates,
+    all (k,)). Returns sigma (k,) of the converged points (last step below stol in sigma, a
+    scalar or (k,), and below TANGENCY_YTOL in t) and NaN where Newton failed or left its box (the caller's bracketed
+    search takes those)."""
+    deg = C.shape[-1] - 1
+    M = monomial_matrix(deg)
+    D = M.T @ C[cell, row] @ M  # (k, d + 1, d + 1): g = sum_ij D_ij x^i y^j
+    D[:, 0, 0] -= offset
+    s0, s1 = cells["s0"][cell], cells["s1"][cell]
+    t0, t1 = cells["t0"][cell], cells["t1"][cell]
+    x, y = _local(s_start, s0, s1), _local(t_start, t0, t1)
+    xl, xh = _local(np.minimum(s_lo, s_hi), s0, s1), _local(np.maximum(s_lo, s_hi), s0, s1)
+    yl, yh = _local(np.minimum(t_lo, t_hi), t0, t1), _local(np.maximum(t_lo, t_hi), t0, t1)
+    xtol = 2.0 * np.broadcast_to(stol, x.shape) / (s1 - s0)
+    powers = np.arange(deg + 1)
+    k = np.arange(cell.size)
+    done = np.zeros(cell.size, bool)
+    act = k
+    for _ in range(TANGENCY_STEPS):
+        if act.size == 0:
+            break
+        xa, ya = x[act], y[act]
+        # rows r_i(y) and their first two y derivatives, then Horner in x
+        r0, r1, r2 = horner2(D[act].reshape(-1, deg + 1), np.repeat(ya, deg + 1))
+        r0, r1, r2 = (r.reshape(act.size, deg + 1) for r in (r0, r1, r2))
+        g = horner(r0, xa)
+        gy = horner(r1, xa)
+        gyy = horner(r2, xa)
+        gx = horner(r0[:, 1:] * powers[1:], xa)
+        gxy = horner(r1[:, 1:] * powers[1:], xa)
+        det = gx * gyy - gy * gxy
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dx = (-g * gyy + gy * gy) / det
+            dy = (-gx * gy + gxy * g) / det
+        x[act], y[act] = xa + dx, ya + dy
+        ok = np.isfinite(dx) & np.isfinite(dy)
+        out = ~ok | (x[act] < xl[act]) | (x[act] > xh[act]) | (y[act] < yl[act]) | (y[act] > yh[act])
+        conv = ok & ~out & (np.abs(dx) <= xtol[act]) & (np.abs(dy) <= TANGENCY_YTOL)
+        x[act[out]] = np.nan
+        done[act[conv]] = True
+        act = act[~conv & ~out]
+    x[~done] = np.nan
+    return s0 + 0.5 * (x + 1.0) * (s1 - s0)

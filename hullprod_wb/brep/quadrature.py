@@ -68,7 +68,8 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.integrals import SurfaceIntegrals
 from ..core.thresholds import check_positive, classify
-from .cell_interpolant import SegmentField, cell_values, fit_interpolants, grid_matrices
+from .cell_interpolant import (SegmentField, cell_values, fit_interpolants, grid_matrices,
+                               tangency_points)
 from .gauss_rules import (WK, XK, embedded_weights, gauss_nodes, kronrod_error, legendre_vander,
                           piece_weights)
 from .patches import Patches, cluster_map
@@ -1011,9 +1012,11 @@ class _Integrator:
         With h = s g_q (s the sign making h < 0 between the closest crossing pair on the
         line with more crossings), phi(sigma) = min of h along the line over a window about
         that pair (on an interpolant's line from its series, SegmentField.window_min; on the
-        field by _parabolic_min) has a simple root at the tangency, found by
-        solve_bracketed. Brackets where phi does not change sign, and roots at a piece's
-        end (within EDGE_XI of its width), give no cut."""
+        field by _parabolic_min) has a simple root at the tangency. Where phi changes sign
+        between the lines, the tangency is found on an interpolant by Newton's method on
+        g = dg/dt = 0 (cell_interpolant.tangency_points), else (and where Newton fails) by
+        solve_bracketed on phi. Brackets where phi does not change sign, and roots at a
+        piece's end (within EDGE_XI of its width), give no cut."""
         p, j, q = np.nonzero(count[:, :-1, :] != count[:, 1:, :])
         if p.size == 0:
             return p, np.empty(0)
@@ -1066,8 +1069,18 @@ class _Integrator:
             return p[:0], np.empty(0)
         i = np.nonzero(ok)[0]
         w = (pc["sb"] - pc["sa"])[p[i]]
-        root = solve_bracketed(lambda x, k: phi(x, i[k]), sm[i], so[i], fm[i], fo[i],
-                               TANGENT_RTOL * w, maxiter=TANGENT_STEPS)
+        # on an interpolant: Newton on g = dg/dt = 0 from the closer pair's midpoint; the
+        # bracketed search on phi where that fails, and on the field
+        root = np.full(i.size, np.nan)
+        k = np.nonzero(use[i])[0]
+        if k.size:
+            ik = i[k]
+            root[k] = tangency_points(self._interp["C"], cells, cell[ik], row[ik], offset[ik], sm[ik], so[ik],
+                                      w0[ik], w1[ik], sm[ik], 0.5 * (ta + tb)[ik], TANGENT_RTOL * w[k])
+        k = np.nonzero(np.isnan(root))[0]
+        if k.size:
+            root[k] = solve_bracketed(lambda x, m: phi(x, i[k[m]]), sm[i[k]], so[i[k]], fm[i[k]], fo[i[k]],
+                                      TANGENT_RTOL * w[k], maxiter=TANGENT_STEPS)
         inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
         return p[i][inside], root[inside]
 
