@@ -1,11 +1,13 @@
 """Benchmark of the native-BRep backend on the shared public hulls.
 
-For each hull in ../shared/hulls/brep: wall time of the whole command
-(`./hullprod analyze FILE --json`), quadrature points evaluated and the seven statuses.
+For each hull in ../shared/hulls/brep: wall time and CPU time (the command with the worker
+processes it integrates faces in) of the whole command (`./hullprod analyze FILE --json`),
+the worker processes used, quadrature points evaluated and the seven statuses.
 With --reference, the same files go through the paper's reference package (hullprod 1.0.1
 from PyPI, installed into a throwaway virtual environment, never a project dependency) in
-the same run, and the time ratios are printed: of the whole commands, and of the commands
-less each tool's start-up (the best of three `--help` runs: interpreter and imports).
+the same run, and the time ratios are printed: of the whole commands, of the commands less
+each tool's start-up (the best of three `--help` runs: interpreter and imports), and of their
+CPU times.
 
     /usr/bin/python3 bench/brep_hulls.py [--reference] [--venv DIR] [--hulls DIR]
 """
@@ -13,6 +15,7 @@ import argparse
 import glob
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -23,6 +26,18 @@ HULLS = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep"))
 #: L_ref per file (L_pp where the source gives it; else None: automatic).
 LREF = {"dtmb5415_half_overture.igs": 5720.0}
 METRICS = ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single", "a_elliptic", "a_saddle")
+
+
+def timed_run(cmd, **kw):
+    """subprocess.run(cmd) with its wall time and its CPU time (user + system of the command and
+    of the worker processes it waited for)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True, **kw)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return p, wall, cpu
 
 
 def startup(cmd, repeat=3):
@@ -39,13 +54,11 @@ def run_ours(path, lref):
     cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet", "--no-fields"]
     if lref:
         cmd += ["--lref", str(lref)]
-    t = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    wall = time.perf_counter() - t
+    p, wall, cpu = timed_run(cmd)
     if p.returncode != 0:
-        return {"wall": wall, "error": p.stderr.strip()[-300:]}
+        return {"wall": wall, "cpu": cpu, "error": p.stderr.strip()[-300:]}
     doc = json.loads(p.stdout)
-    return {"wall": wall, "I_D": doc["signature"]["I_D"],
+    return {"wall": wall, "cpu": cpu, "jobs": doc["options"].get("jobs"), "I_D": doc["signature"]["I_D"],
             "statuses": [doc["validity"][m]["status"] for m in METRICS],
             "points": doc["options"].get("points_evaluated")}
 
@@ -82,10 +95,8 @@ def run_reference(exe, path, lref):
         cmd += ["--lref", str(lref)]
     # a fresh result cache each run, so that nothing is reused between runs
     env = dict(os.environ, HULLPROD_CACHE_DIR=tempfile.mkdtemp(prefix="hullprod-ref-cache-"))
-    t = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    wall = time.perf_counter() - t
-    res = {"wall": wall}
+    p, wall, cpu = timed_run(cmd, env=env)
+    res = {"wall": wall, "cpu": cpu}
     sig = os.path.join(out, "signature.json")
     if p.returncode != 0 or not os.path.exists(sig):
         res["error"] = (p.stderr or p.stdout).strip()[-300:]
@@ -112,22 +123,24 @@ def main():
     s_ref = startup([exe]) if exe else None
     print("start-up (best of 3 --help): HullProd for FreeCAD %.2f s%s" % (
         s_ours, "" if s_ref is None else ", reference %.2f s" % s_ref))
-    print("%-30s %9s %11s %12s  %-58s" % ("hull", "ours [s]", "points", "I_D", "statuses (I_D I_D+ I_D- flat single ell saddle)"))
+    print("%-30s %9s %8s %5s %11s %12s  %-58s" % ("hull", "ours [s]", "CPU [s]", "jobs", "points", "I_D",
+                                                 "statuses (I_D I_D+ I_D- flat single ell saddle)"))
     rows = []
     for f in files:
         name = os.path.basename(f)
         ours = run_ours(f, LREF.get(name))
         ref = run_reference(exe, f, LREF.get(name)) if exe else None
         rows.append((name, ours, ref))
-        print("%-30s %9.2f %11s %12s  %s" % (name, ours["wall"], ours.get("points"),
+        print("%-30s %9.2f %8.2f %5s %11s %12s  %s" % (name, ours["wall"], ours["cpu"], ours.get("jobs"), ours.get("points"),
                                             "%.6g" % ours["I_D"] if ours.get("I_D") is not None else "null",
                                             " ".join(ours.get("statuses", [ours.get("error", "")]))))
         if ref:
             work = (ref["wall"] - s_ref) / max(ours["wall"] - s_ours, 1e-9)
-            print("%-30s %9.2f %11s %12s  reference hullprod 1.0.1: %s UNCONVERGED mentions; %.1fx slower "
-                  "(%.1fx without start-up)"
-                  % ("", ref["wall"], "", "%.6g" % ref["I_D"] if isinstance(ref.get("I_D"), (int, float)) else "null",
-                     ref.get("unconverged", ref.get("error")), ref["wall"] / ours["wall"], work))
+            print("%-30s %9.2f %8.2f %5s %11s %12s  reference hullprod 1.0.1: %s UNCONVERGED mentions; %.1fx slower "
+                  "(%.1fx without start-up; CPU time %.1fx)"
+                  % ("", ref["wall"], ref["cpu"], "", "", "%.6g" % ref["I_D"] if isinstance(ref.get("I_D"), (int, float)) else "null",
+                     ref.get("unconverged", ref.get("error")), ref["wall"] / ours["wall"], work,
+                     ref["cpu"] / max(ours["cpu"], 1e-9)))
         sys.stdout.flush()
 
 

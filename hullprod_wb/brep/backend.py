@@ -464,7 +464,6 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     timings["read"] = time.perf_counter() - t0
 
     t = time.perf_counter()
-    face_fields = [(n, FaceField(f)) for n, f in inp.faces]
     size = inp.shape.BoundBox.DiagonalLength
     # the automatic L_ref from the nodes of one fixed tessellation, whatever the display
     lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
@@ -473,7 +472,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     ref = resolve_reference_length(lref_samples["points"], lref_samples["node_area"], explicit=lref,
                                    units=inp.units.get("working_unit", ""))
     deflection = (display_deflection or DISPLAY_DEFLECTION * size) if with_fields else None
-    samples = sample_faces(face_fields, deflection) if with_fields else None
+    samples = sample_faces([(n, FaceField(f)) for n, f in inp.faces], deflection) if with_fields else None
     if with_fields and samples is None:
         raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
     th = Thresholds(ref.value, h_f, k_f)
