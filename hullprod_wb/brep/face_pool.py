@@ -64,17 +64,16 @@ def resolve_jobs(jobs, n_faces):
                 jobs = int(env)
             except ValueError:
                 raise InputError("%s must be a positive integer, got %r" % (JOBS_ENV, env)) from None
-        else:
-            jobs = available_cpus() if fork_is_safe() else 1
-    try:
-        jobs = int(jobs)
-    except (TypeError, ValueError):
-        raise InputError("jobs must be a positive integer, got %r" % (jobs,)) from None
-    if jobs < 1:
-        raise InputError("jobs must be a positive integer, got %r" % (jobs,))
-    if jobs > 1 and not fork_is_safe():
-        jobs = 1
-    return max(1, min(jobs, n_faces))
+    if jobs is not None:
+        try:
+            jobs = int(jobs)
+        except (TypeError, ValueError):
+            raise InputError("jobs must be a positive integer, got %r" % (jobs,)) from None
+        if jobs < 1:
+            raise InputError("jobs must be a positive integer, got %r" % (jobs,))
+    if n_faces <= 1 or jobs == 1 or not fork_is_safe():
+        return 1
+    return max(1, min(available_cpus() if jobs is None else jobs, n_faces))
 
 
 def _run_one(index):
