@@ -8,12 +8,12 @@ already loaded (no file is read twice and no OpenCascade object is pickled); eac
 its face's record as plain data. Faces are handed out largest first (by their number of
 surface patches), so the longest face does not start last.
 
-Forking is used only where it is safe: a POSIX system with the fork start method, called
-from the main thread of a process that is not itself a pool worker, and not inside the
-FreeCAD GUI (its render and Qt threads). Elsewhere, and with jobs=1, the faces run in this
-process with progress inside each face.
+Forking is used only where it is safe: Linux, called from the main thread of a process that
+is not itself a pool worker, and not inside the FreeCAD GUI (its render and Qt threads).
+Elsewhere, and with jobs=1, the faces run in this process with progress inside each face.
 """
 import os
+import sys
 import threading
 
 from ..core.errors import InputError
@@ -28,15 +28,16 @@ _WORK = None
 
 def fork_is_safe():
     """True where worker processes may be forked from this process (see module doc)."""
+    if not sys.platform.startswith("linux"):  # macOS: system frameworks are not fork-safe
+        return False
     import multiprocessing
-    if os.name != "posix" or "fork" not in multiprocessing.get_all_start_methods():
+    if "fork" not in multiprocessing.get_all_start_methods():
         return False
     if threading.current_thread() is not threading.main_thread():
         return False
     if multiprocessing.current_process().daemon:
         return False
     try:
-        import sys
         FreeCAD = sys.modules.get("FreeCAD")
         if FreeCAD is not None and getattr(FreeCAD, "GuiUp", False):
             return False
