@@ -479,7 +479,8 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     timings["display_samples"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    areas = np.array([max(f.Area, 0.0) for _, f in inp.faces])
+    occ_areas = [f.Area for _, f in inp.faces]
+    areas = np.maximum(np.array(occ_areas, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
     n_jobs = resolve_jobs(jobs, len(inp.faces))
     done = [0.0, 0]  # weight and number of the faces finished
@@ -504,8 +505,16 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
 
     if n_jobs > 1:
         progress(0.05, "integrating %d faces in %d processes" % (len(inp.faces), n_jobs))
+    prov = {}
+
+    def shape_records():  # in this process while the workers integrate
+        tp = time.perf_counter()
+        prov.update(shape_provenance(inp.shape, inp.faces, occ_areas))
+        timings["provenance"] = time.perf_counter() - tp
+
     results = map_faces(face_work, len(inp.faces), n_jobs, cost=[patch_count(f) for _, f in inp.faces],
-                        on_done=finished, labels=["Face%d" % n for n, _ in inp.faces])
+                        on_done=finished, labels=["Face%d" % n for n, _ in inp.faces],
+                        while_waiting=shape_records)
     timings["quadrature"] = time.perf_counter() - t
 
     integrals = SurfaceIntegrals.zero()
@@ -517,7 +526,6 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     rows = face_records(results, integrals, ref.value, th.tau_H, th.tau_K)
 
     t = time.perf_counter()
-    prov = shape_provenance(inp.shape, inp.faces)
     prov["units"] = inp.units
     prov["faces"] = rows
     prov["concentrated_faces"] = concentrated_faces(rows)
@@ -531,7 +539,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     prov["quadrature"] = [{"face": f.number, **f.quad.to_dict()} for f in results]
     if cross_checks:
         prov["cross_checks"] = [f.cross_check for f in results]
-    timings["provenance"] = time.perf_counter() - t
+    timings["provenance"] += time.perf_counter() - t
 
     fields = display_fields(samples, ref.value, th) if with_fields else None
     points = sum(r["points"] for r in rows)

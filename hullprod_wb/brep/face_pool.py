@@ -81,16 +81,20 @@ def _run_one(index):
     return index, _WORK(index)
 
 
-def map_faces(work, n, jobs, cost=None, on_done=None, labels=None):
+def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting=None):
     """[work(0), ..., work(n - 1)] with jobs worker processes (resolve_jobs first).
 
     work(i) returns a picklable result; cost (n,) orders the hand-out (largest first);
-    on_done(i, result) is called in this process as each finishes. An error raised by work
-    is raised here; a worker that dies (a crash in the geometry kernel) is reported as an
-    InputError naming the items (labels, default their indices) that were still running."""
+    on_done(i, result) is called in this process as each finishes; while_waiting() is
+    called once in this process, while the workers run (first, without workers). An error
+    raised by work is raised here; a worker that dies (a crash in the geometry kernel) is
+    reported as an InputError naming the items (labels, default their indices) that were
+    still running."""
     global _WORK
     results = [None] * n
     if jobs <= 1 or n <= 1:
+        if while_waiting is not None:
+            while_waiting()
         for i in range(n):
             results[i] = work(i)
             if on_done is not None:
@@ -105,6 +109,8 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None):
         with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("fork")) as pool:
             pending = {pool.submit(_run_one, i): i for i in order}
             try:
+                if while_waiting is not None:
+                    while_waiting()
                 while pending:
                     done, _ = wait(pending, return_when=FIRST_COMPLETED)
                     for fut in done:

@@ -122,10 +122,11 @@ def surface_type_name(face):
     return type(face.Surface).__name__
 
 
-def shape_provenance(shape, faces):
-    """Provenance dict of the assessed faces of shape (faces: list of (number, Part.Face))."""
+def shape_provenance(shape, faces, areas=None):
+    """Provenance dict of the assessed faces of shape (faces: list of (number, Part.Face);
+    areas: their OpenCascade areas when already known)."""
     types = Counter(surface_type_name(f) for _, f in faces)
-    occ_area = float(sum(f.Area for _, f in faces))
+    occ_area = float(sum(f.Area for _, f in faces) if areas is None else sum(areas))
     bb = shape.BoundBox
     return {
         "faces_total": len(shape.Faces),
