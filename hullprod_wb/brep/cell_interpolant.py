@@ -331,8 +331,8 @@ def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start
     the cell's local coordinates, D = M^T C M with M = monomial_matrix), started at
     (s_start, t_start) and kept in the boxes [s_lo, s_hi] x [t_lo, t_hi] (patch coordinates,
     all (k,)). Returns sigma (k,) of the converged points (last step below stol in sigma, a
-    scalar or (k,), and below TANGENCY_YTOL in t) and NaN where Newton failed or left its box (the caller's bracketed
-    search takes those)."""
+    scalar or (k,), and below TANGENCY_YTOL in t) and NaN where Newton failed or left its
+    box (the caller's bracketed search takes those)."""
     deg = C.shape[-1] - 1
     M = monomial_matrix(deg)
     D = M.T @ C[cell, row] @ M  # (k, d + 1, d + 1): g = sum_ij D_ij x^i y^j
@@ -344,9 +344,8 @@ def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start
     yl, yh = _local(np.minimum(t_lo, t_hi), t0, t1), _local(np.maximum(t_lo, t_hi), t0, t1)
     xtol = 2.0 * np.broadcast_to(stol, x.shape) / (s1 - s0)
     powers = np.arange(deg + 1)
-    k = np.arange(cell.size)
     done = np.zeros(cell.size, bool)
-    act = k
+    act = np.arange(cell.size)
     for _ in range(TANGENCY_STEPS):
         if act.size == 0:
             break

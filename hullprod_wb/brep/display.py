@@ -64,8 +64,8 @@ def sample_faces(face_fields, deflection):
 
 def tessellation_samples(faces, deflection):
     """Points (n, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
-    of Part.Face), without fields: all the automatic reference length needs. Returns a dict with points and node_area, or None when
-    no face has a tessellation."""
+    of Part.Face), without fields: all the automatic reference length needs. Returns a dict
+    with points and node_area, or None when no face has a tessellation."""
     points, triangles = [], []
     offset = 0
     for face in faces:

@@ -19,9 +19,9 @@ def dist_version(name):
     for folder in sys.path:
         for meta in sorted(glob.glob(os.path.join(folder or ".", name + "-*.*-info"))):
             stem = os.path.basename(meta).rsplit(".", 1)[0][len(name) + 1:]
-            version = stem.split("-py")[0]
-            if version and version[0].isdigit():
-                return version
+            found = stem.split("-py")[0]
+            if found and found[0].isdigit():
+                return found
     from importlib.metadata import PackageNotFoundError, version
     try:
         return version(name)
