@@ -487,6 +487,58 @@ def test_embedded_rule_is_exact_to_degree_n_minus_2():
         assert abs(w @ x ** (n - 1) - 1.0 / n) > 1e-8  # and not beyond (it is the lower rule)
 
 
+def test_turned_lines_follow_level_curves_along_t(monkeypatch):
+    """The same field as test_class_area_bounded_by_a_curved_threshold_line with u and v
+    exchanged: its level curves run along t, so the mixed cells take their lines along
+    sigma (_Integrator._turn_cells); the class areas keep the closed form to 1e-9 with
+    fewer line evaluations than lines that are not turned (those, nearly parallel to the
+    level curves, are 2e-8 off here: within the tolerance, 1.1e-6 for A_single)."""
+    import hullprod_wb.brep.quadrature as quadrature
+    f = field_of(lambda u, v: 1 + 0.5 * u * v,
+                 lambda u, v: u - 0.3 - 0.1 * np.sin(2 * np.pi * v))
+    d = TrimmedDomain.rectangle(0, 1, 0, 1)
+    turned, lines = [], []
+    turn = quadrature._Integrator._turn_cells
+    values = quadrature._Integrator._line_values
+
+    def record_turn(self, cells, interp):
+        out = turn(self, cells, interp)
+        turned.append(int(np.isfinite(out[0]["width"]).sum()))
+        return out
+
+    def record_lines(self, cell, pid, sig, t0, t1):
+        lines.append(pid.size)
+        return values(self, cell, pid, sig, t0, t1)
+
+    monkeypatch.setattr(quadrature._Integrator, "_turn_cells", record_turn)
+    monkeypatch.setattr(quadrature._Integrator, "_line_values", record_lines)
+    r = integrate(d, f, TAU_H, TAU_K)
+    n_turned, n_lines = sum(turned), sum(lines)
+
+    def above(c):  # int_0^1 int_{g + c}^1 J du dv in closed form (u and v exchanged)
+        b = 0.3 + c
+        return (1 - b) + 0.25 * (0.5 - b * b / 2 + 0.2 * b / (2 * np.pi) - 0.01 / 4)
+
+    ell, sad = above(TAU_K), (1 + 0.125) - above(-TAU_K)
+    assert n_turned > 0
+    assert r.values["A_elliptic"] == pytest.approx(ell, abs=1e-9)
+    assert r.values["A_saddle"] == pytest.approx(sad, abs=1e-9)
+    assert r.values["A_single"] == pytest.approx(1.125 - ell - sad, abs=1e-9)
+    assert r.all_converged
+    turned.clear()
+    lines.clear()
+    # no cell turned: the candidates' interpolants hidden from _turn_cells
+    monkeypatch.setattr(quadrature._Integrator, "_turn_cells", lambda self, cells, interp: (
+        turn(self, cells, {**interp, "use": np.zeros_like(interp["use"])})[0], interp))
+    s = integrate(d, f, TAU_H, TAU_K)
+    assert sum(turned) == 0 and s.all_converged
+    for q, exact in (("A_elliptic", ell), ("A_saddle", sad), ("A_single", 1.125 - ell - sad)):
+        assert s.values[q] == pytest.approx(exact, abs=1e-7), q
+    for q in ("A", "int_abs_K", "int_K_plus", "int_K_minus"):
+        assert s.values[q] == pytest.approx(r.values[q], rel=1e-9), q
+    assert n_lines < sum(lines)
+
+
 def test_mixed_cells_on_interpolants_agree_with_field_lines(monkeypatch):
     """The lines of mixed cells run on a local tensor interpolant of the cell's samples when
     it is accurate enough; forcing the field everywhere (share 0) gives the same integrals

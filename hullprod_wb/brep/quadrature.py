@@ -37,7 +37,10 @@ H through its children's samples (hullprod_wb.brep.cell_interpolant) when the in
 error, measured at the parent's own nodes and propagated to each integral, is within
 INTERPOLANT_SHARE of the cell's budget (it then adds to the cell's error); a cell whose
 interpolant is not yet that accurate is split instead, and at the last level its lines run
-on the field itself:
+on the field itself. A cell on its interpolant in an affine patch (one constant area element)
+whose K varies more along sigma than along t takes its lines along sigma instead (sigma and t
+exchanged, _Integrator._turn_cells): its level curves then cross the lines instead of running
+beside them, and cross the cell's t edges (each crossing a cut, below) far less often:
 - on a line sigma = const, the crossings in t of K - tau_K, K + tau_K, H - tau_H, H + tau_H
   and K are bracketed between the samples ZS (and around extrema of one sign that get
   near zero between samples) and refined together; each piece between crossings has one
@@ -842,7 +845,7 @@ class _Integrator:
         L = pid.size
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
-        width = hi - lo
+        width = self._turned(cell, hi - lo, "width")
         evalf = self._segments_t(cell, sig, u, lo, width)
         li, lq, roots, S = self._crossings(evalf, t0, t1)
         ar = np.arange(L)
@@ -925,7 +928,7 @@ class _Integrator:
         only (see _crossings with refine=False)."""
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
-        width = hi - lo
+        width = self._turned(cell, hi - lo, "width")
         evalf = self._segments_t(cell, sig, u, lo, width)
         li, lq, roots, _ = self._crossings(evalf, t0, t1, refine=False)
         return _count_and_pairs(li, lq, roots, pid.size)
@@ -958,6 +961,7 @@ class _Integrator:
         lcell = np.concatenate((np.repeat(pc["cell"][nk], m - 2), np.repeat(pc["cell"][ns], XI3.size)))
         lpid = cells["pid"][lcell]
         _, ldu = self.patches.u_of_sigma(lpid, lsig)
+        ldu = self._turned(lcell, ldu, "du")
         d = self._line_values(lcell, lpid, lsig, cells["t0"][lcell], cells["t1"][lcell])
         nkl = nk.size * (m - 2)
         Fk, es, et = (np.zeros((n, N_LINE_Q)) for _ in range(3))
@@ -1084,6 +1088,53 @@ class _Integrator:
         inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
         return p[i][inside], root[inside]
 
+    def _turn_cells(self, cells, interpolants):
+        """The mixed cells with their lines turned where that suits the level curves: a cell
+        on its interpolant, in a patch whose map to (u, v) is affine (linear in sigma, constant
+        strip bounds: the area element du/dsigma (hi - lo) is one constant), along which K
+        varies more in sigma than in t (the level curves run along t, so lines sigma = const
+        would meet them at small angles and cross the cell's t edges, each crossing a cut) is
+        given with sigma and t exchanged: the box, its interpolant's axes, and the constant
+        width and du/dsigma of the original in "width" and "du" (NaN for the others, see
+        _turned). The line integrals of a cell do not depend on the direction of its lines."""
+        n = cells["pid"].size
+        P = self.patches
+        pid = cells["pid"]
+        affine = (P.umap[pid] == 0) & (P.lo_piece[pid] < 0) & (P.hi_piece[pid] < 0)
+        cand = np.nonzero(interpolants["use"] & affine)[0]
+        turn = np.zeros(n, bool)
+        if cand.size:
+            # mean |dK| along each local axis from the K series: sum over the other axis of
+            # |coefficients| times the derivative sizes of P_a (a (a + 1) / 2 at the ends)
+            Ck = np.abs(interpolants["C"][cand, 1])
+            dsize = np.arange(Ck.shape[-1]) * (np.arange(Ck.shape[-1]) + 1) / 2.0
+            d_sigma = (Ck.sum(2) * dsize).sum(1)
+            d_t = (Ck.sum(1) * dsize).sum(1)
+            turn[cand] = d_sigma > d_t
+        cells = dict(cells)
+        cells["width"] = np.full(n, np.nan)
+        cells["du"] = np.full(n, np.nan)
+        if not turn.any():
+            return cells, interpolants
+        k = np.nonzero(turn)[0]
+        u, du = P.u_of_sigma(pid[k], np.full(k.size, 0.5))
+        lo, hi = P.bounds(pid[k], u)
+        cells["width"][k], cells["du"][k] = hi - lo, du
+        for a, b in (("s0", "t0"), ("s1", "t1")):
+            cells[a], cells[b] = cells[a].copy(), cells[b].copy()
+            cells[a][k], cells[b][k] = cells[b][k], cells[a][k].copy()
+        interpolants = dict(interpolants)
+        C = interpolants["C"].copy()
+        C[k] = np.swapaxes(C[k], 2, 3)
+        interpolants["C"] = C
+        return cells, interpolants
+
+    def _turned(self, cell, values, key):
+        """values (m,) (line widths hi - lo, or du/dsigma) of lines in the cells cell (m,)
+        (indices into _pc_cells), with the constants of turned cells (_turn_cells) put in."""
+        const = self._pc_cells[key][cell]
+        return np.where(np.isnan(const), values, const)
+
     def _lines(self, cells, budget, interpolants):
         """LINE_Q integrals (n, 7), error estimates (n, 7) and fit flags (n,) of mixed cells
         with error budgets (n, 7).
@@ -1097,6 +1148,7 @@ class _Integrator:
         or once its accepted errors exceed it, two halves keep more than STALL_RATIO of their
         parent's error, or it holds MAX_PIECES pieces (a singular or rough integrand). A cell
         fits when its total error estimate is within its budget."""
+        cells, interpolants = self._turn_cells(cells, interpolants)
         self._pc_cells, self._interp = cells, interpolants
         nc = cells["pid"].size
         out, errs = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q))
