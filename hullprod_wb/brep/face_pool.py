@@ -78,7 +78,7 @@ def resolve_jobs(jobs, n_faces):
 
 
 def _run_one(index):
-    return index, _WORK(index)
+    return _WORK(index)
 
 
 def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting=None):
@@ -116,7 +116,7 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
                     for fut in done:
                         i = pending.pop(fut)
                         try:
-                            _, results[i] = fut.result()
+                            results[i] = fut.result()
                         except BrokenProcessPool:
                             left = sorted([i] + list(pending.values()))
                             raise InputError(

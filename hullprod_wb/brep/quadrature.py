@@ -709,11 +709,16 @@ class _Integrator:
         use = np.all(err <= INTERPOLANT_SHARE * budget, 1)
         return dict(C=fit["C"], use=use, err=np.where(use[:, None], err, 0.0))
 
-    def _segments_t(self, cell, sig, u, lo, width):
-        """SegmentField of the lines sigma = sig (L,) of the mixed cells cell (L,) (u, lo,
-        width (L,): the lines' u and strip bounds, for the field where no interpolant is used)."""
-        return SegmentField(self._interp["C"], self._interp["use"], self._pc_cells, cell, sig, "t",
-                            lambda x, i: self.f(u[i], lo[i] + x * width[i]))
+    def _segments_t(self, cell, pid, sig):
+        """SegmentField of the lines sigma = sig (L,) of patches pid (L,) in the mixed cells
+        cell (L,), and the lines' strip widths hi - lo (L,) (the constant of turned cells:
+        _turned); the field is evaluated where no interpolant is used."""
+        u, _ = self.patches.u_of_sigma(pid, sig)
+        lo, hi = self.patches.bounds(pid, u)
+        width = self._turned(cell, hi - lo, "width")
+        evalf = SegmentField(self._interp["C"], self._interp["use"], self._pc_cells, cell, sig, "t",
+                             lambda x, i: self.f(u[i], lo[i] + x * width[i]))
+        return evalf, width
 
     def _cell_field(self, cell, sig, t):
         """J, K, H, regular (m,) at patch coordinates (sig, t) (m,) of the mixed cells cell
@@ -843,10 +848,7 @@ class _Integrator:
         over those interpolants on shorter ones (error estimate: against the degree-6
         interpolants at the inner samples)."""
         L = pid.size
-        u, _ = self.patches.u_of_sigma(pid, sig)
-        lo, hi = self.patches.bounds(pid, u)
-        width = self._turned(cell, hi - lo, "width")
-        evalf = self._segments_t(cell, sig, u, lo, width)
+        evalf, width = self._segments_t(cell, pid, sig)
         li, lq, roots, S = self._crossings(evalf, t0, t1)
         ar = np.arange(L)
         lid, a, b = _segments(np.concatenate((t0, roots, t1)), np.concatenate((ar, li, ar)))
@@ -926,10 +928,7 @@ class _Integrator:
     def _line_counts(self, cell, pid, sig, t0, t1):
         """Crossing counts (L, 5) and closest pairs (L, 5, 2) of lines, from their samples
         only (see _crossings with refine=False)."""
-        u, _ = self.patches.u_of_sigma(pid, sig)
-        lo, hi = self.patches.bounds(pid, u)
-        width = self._turned(cell, hi - lo, "width")
-        evalf = self._segments_t(cell, sig, u, lo, width)
+        evalf, _ = self._segments_t(cell, pid, sig)
         li, lq, roots, _ = self._crossings(evalf, t0, t1, refine=False)
         return _count_and_pairs(li, lq, roots, pid.size)
 
