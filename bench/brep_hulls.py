@@ -58,7 +58,7 @@ def run_ours(path, lref):
     if p.returncode != 0:
         return {"wall": wall, "cpu": cpu, "error": p.stderr.strip()[-300:]}
     doc = json.loads(p.stdout)
-    return {"wall": wall, "cpu": cpu, "jobs": doc["options"].get("jobs"), "I_D": doc["signature"]["I_D"],
+    return {"wall": wall, "cpu": cpu, "jobs": max(doc["options"].get("jobs") or 1, doc["options"].get("group_jobs") or 1), "I_D": doc["signature"]["I_D"],
             "statuses": [doc["validity"][m]["status"] for m in METRICS],
             "points": doc["options"].get("points_evaluated")}
 

@@ -52,8 +52,9 @@ def add_common_options(p):
     q.add_argument("--rtol", type=float, default=None, help="local relative tolerance (default 1e-4)")
     q.add_argument("--max-depth", type=int, default=None, help="maximum refinement depth (default 5)")
     q.add_argument("--jobs", type=int, default=None,
-                   help="processes integrating the faces in parallel (default: the available CPUs, "
-                        "or $HULLPROD_JOBS; the values do not depend on it)")
+                   help="processes integrating the faces (or the patch groups of a face assessed "
+                        "alone) in parallel (default: the available CPUs, or $HULLPROD_JOBS; the "
+                        "values do not depend on it)")
 
 
 def quadrature_options(args):

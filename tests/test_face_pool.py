@@ -1,5 +1,6 @@
 """Faces integrated in parallel worker processes (brep.face_pool): the same values as one
 after the other, the worker count resolved safely, errors and crashes reported."""
+import math
 import os
 import threading
 
@@ -86,3 +87,73 @@ def test_map_faces_order_progress_and_errors():
         face_pool.map_faces(_fails_on_two, 4, 2)
     with pytest.raises(InputError, match="worker process died while integrating .*Face2"):
         face_pool.map_faces(_dies_on_one, 3, 2, labels=["Face1", "Face2", "Face3"])
+
+
+_PARENT = os.getpid()
+
+
+def _where(i):
+    return (i * i, os.getpid() == _PARENT)
+
+
+def _dies_in_a_child(i):
+    if os.getpid() != _PARENT:
+        os._exit(3)  # a crash in the geometry kernel, seen from the parent: no result sent
+    return i + 10
+
+
+@needs_fork
+def test_map_forked_same_results_here_or_in_children():
+    calls = []
+    here = face_pool.map_forked(_where, 3, 1, while_waiting=lambda: calls.append("wait"))
+    forked = face_pool.map_forked(_where, 3, 3, while_waiting=lambda: calls.append("wait"))
+    assert [r for r, _ in here] == [r for r, _ in forked] == [0, 1, 4]
+    assert all(local for _, local in here)
+    assert [local for _, local in forked] == [True, False, False]  # item 0 here, the others forked
+    assert calls == ["wait", "wait"]
+    two = face_pool.map_forked(_where, 4, 2)  # more items than processes: the rest run here
+    assert [r for r, _ in two] == [0, 1, 4, 9] and [local for _, local in two] == [True, False, True, True]
+    with pytest.raises(InputError, match="face 2 is broken"):
+        face_pool.map_forked(_fails_on_two, 3, 3)
+    # a child that dies before sending: its item is done here, with the same result
+    assert face_pool.map_forked(_dies_in_a_child, 3, 3) == [10, 11, 12]
+
+
+@needs_freecad
+@needs_fork
+def test_a_face_assessed_alone_is_integrated_in_patch_groups():
+    from hullprod_wb import assess
+    from hullprod_wb.brep.quadrature import GROUP_MIN_PATCHES
+    from hullprod_wb.freecad_env import import_freecad
+    import_freecad()
+    import Part
+    from FreeCAD import Vector as V
+    # a bicubic B-spline face of 18 x 16 = 288 knot spans, waves of both signs of K
+    nu, nv = 18, 16
+    ku = [i / nu for i in range(nu + 1)]
+    kv = [j / nv for j in range(nv + 1)]
+    mu = [4] + [1] * (nu - 1) + [4]
+    mv = [4] + [1] * (nv - 1) + [4]
+    poles = [[V(4.0 * i / (nu + 2), 3.0 * j / (nv + 2), 0.2 * math.sin(0.9 * i) * math.cos(0.7 * j))
+              for j in range(nv + 3)] for i in range(nu + 3)]
+    s = Part.BSplineSurface()
+    s.buildFromPolesMultsKnots(poles, mu, mv, ku, kv, False, False, 3, 3)
+    face = s.toShape()
+    assert nu * nv >= GROUP_MIN_PATCHES
+    one = assess(face, lref=4.0, with_fields=False, jobs=1)
+    two = assess(face, lref=4.0, with_fields=False, jobs=2)
+    assert one.options["group_jobs"] == 1 and two.options["group_jobs"] == 2
+    assert two.vector == one.vector  # to the bit: the groups do not depend on the processes
+    q = two.provenance["quadrature"][0]
+    assert q["patch_groups"] == 2 and sum(p["n_initial_cells"] for p in q["parts"][:2]) == nu * nv
+    assert all(q["converged"].values())
+    assert two.provenance["cross_checks"] == [dict(c, seconds=t["seconds"]) for c, t in
+                                              zip(one.provenance["cross_checks"], two.provenance["cross_checks"])]
+    # with another face, the faces share the processes and no face is split
+    other = Part.makePlane(1.0, 1.0, V(0, 0, -2))
+    both = assess(Part.Compound([face, other]), lref=4.0, with_fields=False, jobs=2)
+    q2 = both.provenance["quadrature"][0]
+    assert q2["patch_groups"] == 1 and q2["parts"][0]["n_initial_cells"] == nu * nv
+    for m in ("I_D", "I_D_plus", "I_D_minus"):
+        # the same face integrated whole: within the tolerance (1e-4), not to the bit
+        assert both.validity[m].status == one.validity[m].status

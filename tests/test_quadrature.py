@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import needs_freecad, shared_hull
-from hullprod_wb.brep.quadrature import QUANTITIES, integrate
+from hullprod_wb.brep.quadrature import GROUP_MIN_PATCHES, GROUPS, QUANTITIES, integrate, patch_groups
 from hullprod_wb.brep.trimmed_domain import (ConicArc2D, FunctionCurve2D, NurbsCurve2D,
                                              TrimmedDomain, solve_bracketed)
 from hullprod_wb.core.errors import InputError
@@ -138,6 +138,33 @@ def test_class_area_bounded_by_a_curved_threshold_line():
     assert r.values["A_single"] == pytest.approx(1.125 - ell - sad, abs=1e-9)
     assert r.values["A"] == pytest.approx(1.125, rel=1e-13)
     assert r.converged["A_elliptic"] and r.converged["A_single"]
+
+
+def test_patch_groups_cover_the_face_once():
+    assert patch_groups(GROUP_MIN_PATCHES - 1) == [(0, GROUP_MIN_PATCHES - 1)]
+    groups = patch_groups(1001)
+    assert len(groups) == GROUPS and groups[0][0] == 0 and groups[-1][1] == 1001
+    assert all(a[1] == b[0] for a, b in zip(groups[:-1], groups[1:]))
+    assert max(b - a for a, b in groups) - min(b - a for a, b in groups) <= 1
+
+
+def test_patch_groups_sum_to_the_whole_face_within_tolerance():
+    # the curved threshold line of the test above, on 20 x 16 knot-line patches
+    f = field_of(lambda u, v: 1 + 0.5 * u * v,
+                 lambda u, v: v - 0.3 - 0.1 * np.sin(2 * np.pi * u))
+    d = TrimmedDomain.rectangle(0, 1, 0, 1)
+    ub, vb = np.linspace(0, 1, 21)[1:-1], np.linspace(0, 1, 17)[1:-1]
+    whole = integrate(d, f, TAU_H, TAU_K, u_breaks=ub, v_breaks=vb)
+    assert whole.n_initial_cells == 320
+    parts = [integrate(d, f, TAU_H, TAU_K, u_breaks=ub, v_breaks=vb, patch_range=g) for g in patch_groups(320)]
+    assert [p.n_initial_cells for p in parts] == [160, 160]
+    assert all(p.all_converged for p in parts)
+    for q in QUANTITIES:
+        total = sum(p.values[q] for p in parts)
+        assert abs(total - whole.values[q]) <= whole.tolerances[q] + sum(p.tolerances[q] for p in parts)
+    assert sum(p.values["A"] for p in parts) == pytest.approx(1.125, rel=1e-13)
+    with pytest.raises(InputError, match="holds none of the domain's 320 patches"):
+        integrate(d, f, TAU_H, TAU_K, u_breaks=ub, v_breaks=vb, patch_range=(400, 500))
 
 
 def test_class_areas_of_an_island_with_tangencies():

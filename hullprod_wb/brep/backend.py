@@ -25,10 +25,11 @@ from . import singular
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_field import FaceField
-from .face_pool import map_faces, resolve_jobs
+from .face_pool import map_faces, map_forked, resolve_jobs
 from .loading import load_brep
 from .provenance import shape_provenance
-from .quadrature import QUANTITIES, integrate, patch_rule
+from .patches import Patches
+from .quadrature import GROUPS, QUANTITIES, integrate, patch_groups, patch_rule
 from .trimmed_domain import TrimmedDomain
 
 #: Quadrature settings of the paper's campaign (section 5.2); all are options.
@@ -85,32 +86,39 @@ def cross_check_occ(ff, domain, n=CROSS_CHECK_POINTS):
     return worst
 
 
-def area_cross_check(ff, domain, u_breaks, v_breaks, area):
+def area_rule(ff, domain, u_breaks, v_breaks):
     """Represented area by the fixed tensor Gauss-Legendre rule of order 8 on every
     boundary-fitted patch (quadrature.patch_rule), an estimate independent of the adaptive
-    cubature, with its embedded-rule bound on its own error. Only J is evaluated (first
-    derivatives: FaceField.area_element)."""
+    cubature, and the embedded-rule bound on its own error: (area, bound). Only J is
+    evaluated (first derivatives: FaceField.area_element)."""
     values, bounds = patch_rule(domain, ff.area_element, 8, u_breaks, v_breaks)
-    ref = values["A"]
+    return values["A"], bounds["A"]
+
+
+def area_cross_check(rule, area):
+    """The record comparing the adaptive cubature's area with area_rule's (area, bound)."""
+    ref, bound = rule
     return {"method": "tensor Gauss-Legendre order 8 on the boundary-fitted patches",
-            "area": ref, "check_error_bound": bounds["A"],
+            "area": ref, "check_error_bound": bound,
             "relative_difference": abs(area - ref) / ref if ref else None}
 
 
 class CombinedQuadrature:
     """Quadrature of a face made of parts: the face with its singular neighbourhoods
-    excluded, and each neighbourhood quadrant through its graded map. Sums values, errors
-    and counts. A quantity is converged when the main part converged (at its deepest check)
-    and the summed error estimates of all parts are within the main part's tolerance."""
+    excluded (n_main parts: its patch groups), and each neighbourhood quadrant through its
+    graded map. Sums values, errors and counts. A quantity is converged when every main part
+    converged (at its deepest check) and the summed error estimates of all parts are within
+    their summed tolerances."""
 
-    def __init__(self, parts):
+    def __init__(self, parts, n_main=1):
         self.parts = parts
+        self.n_main = int(n_main)
         finals = [_final(p) for p in parts]
         self.values = {k: float(sum(f.values[k] for f in finals)) for k in QUANTITIES}
         self.errors = {k: float(sum(f.errors[k] for f in finals)) for k in QUANTITIES}
-        main = finals[0]
-        self.converged = {k: bool(main.converged[k] and self.errors[k] <= main.tolerances[k] +
-                                  sum(f.tolerances[k] for f in finals[1:]))
+        main = finals[:self.n_main]
+        self.converged = {k: bool(all(m.converged[k] for m in main) and
+                                  self.errors[k] <= sum(f.tolerances[k] for f in finals))
                           for k in QUANTITIES}
         self.depth_reached = max(f.depth_reached for f in finals)
         self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
@@ -134,7 +142,7 @@ class CombinedQuadrature:
     def to_dict(self):
         return {"values": self.values, "errors": self.errors, "converged": self.converged,
                 "depth_reached": self.depth_reached, "n_points": self.n_points, "rechecked": self.rechecked,
-                "parts": [p.to_dict() for p in self.parts]}
+                "patch_groups": self.n_main, "parts": [p.to_dict() for p in self.parts]}
 
 
 @dataclass
@@ -173,13 +181,16 @@ class FaceAssessment:
         return self
 
 
-def face_cross_checks(f):
+def face_cross_checks(f, rule=None, seconds=0.0):
     """Cross-checks of one assessed face (needs its field and domain): derivatives and H, K
-    against OpenCascade at interior points, and the independent fixed-rule area."""
+    against OpenCascade at interior points, and the independent fixed-rule area (rule: its
+    area_rule when already computed, in seconds)."""
     t = time.perf_counter()
     rec = {"face": f.number, "occ_pointwise_max_relative": cross_check_occ(f.ff, f.domain)}
-    rec["area"] = area_cross_check(f.ff, f.domain, f.u_breaks, f.v_breaks, f.result.values["A"])
-    rec["seconds"] = time.perf_counter() - t
+    if rule is None:
+        rule = area_rule(f.ff, f.domain, f.u_breaks, f.v_breaks)
+    rec["area"] = area_cross_check(rule, f.result.values["A"])
+    rec["seconds"] = seconds + time.perf_counter() - t
     return rec
 
 
@@ -220,9 +231,14 @@ def patch_count(face):
         return 1
 
 
-def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
+def assess_face(number, face, thresholds, lref, opts, progress=null_progress, groups=False, group_jobs=1,
+                cross_checks=True):
     """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
-    separately through a graded map (singular.GradedQuadrantField), then audited."""
+    separately through a graded map (singular.GradedQuadrantField), then audited. With
+    groups, a face of many patches is integrated in patch groups (quadrature.patch_groups),
+    in group_jobs processes (face_pool.map_forked; the values do not depend on it), and
+    this process computes the area cross-check while it waits for the others. cross_checks:
+    attach face_cross_checks."""
     ff = FaceField(face)
     try:
         domain = TrimmedDomain.from_face(face)
@@ -241,17 +257,31 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
         gv = np.unique(np.concatenate([np.asarray(v_breaks, float), qv]))
         main_field = singular.ExcludedBoxesField(ff, [q.box for q in quads])
     kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
-    parts = [integrate(domain, main_field, thresholds.tau_H, thresholds.tau_K, u_breaks=gu, v_breaks=gv,
-                       progress=progress, **kw)]
+    groups = patch_groups(Patches.of(domain, gu, gv).size) if groups else [None]
+
+    def main_part(g):  # progress from the group integrated in this process
+        return integrate(domain, main_field, thresholds.tau_H, thresholds.tau_K, u_breaks=gu, v_breaks=gv,
+                         progress=progress if g == 0 else None, patch_range=groups[g], **kw)
+
+    check = {}
+
+    def area_check():  # independent of the adaptive cubature: while other groups finish
+        t = time.perf_counter()
+        check["rule"] = area_rule(ff, domain, gu, gv)
+        check["seconds"] = time.perf_counter() - t
+
+    parts = map_forked(main_part, len(groups), group_jobs, while_waiting=area_check if cross_checks else None)
+    n_main = len(parts)
     unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0) if quads else None
     # Each neighbourhood quadrant may use up to a 1/(2 n) share of the face's tolerance; the
     # graded map makes its integrand smooth, so a shallow tree resolves it.
-    share = {k: abs(v) / (2.0 * max(len(quads), 1)) for k, v in _final(parts[0]).values.items()}
+    main_values = {k: sum(_final(p).values[k] for p in parts) for k in QUANTITIES}
+    share = {k: abs(v) / (2.0 * max(len(quads), 1)) for k, v in main_values.items()}
     qkw = dict(kw, max_depth=min(opts["max_depth"], QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
     for q in quads:
         parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,
                                reference=share, **qkw))
-    quad = CombinedQuadrature(parts)
+    quad = CombinedQuadrature(parts, n_main)
     audits = []
     if deg and opts.get("audit", True):
         totals = dict(quad.values)
@@ -260,7 +290,10 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress):
                                                thresholds.tau_K, order=opts["order"]))
         for side in deg.sides:
             audits.append(singular.probe_side(ff, domain, side, u_breaks, v_breaks))
-    return FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
+    f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
+    if cross_checks:
+        f.cross_check = face_cross_checks(f, check.get("rule"), check.get("seconds", 0.0))
+    return f
 
 
 def _global_converged(faces, quantity, rtol):
@@ -483,6 +516,10 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     areas = np.maximum(np.array(occ_areas, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
     n_jobs = resolve_jobs(jobs, len(inp.faces))
+    # a face assessed alone is integrated in patch groups, which share the CPUs instead of
+    # faces (several faces: the faces do)
+    groups = len(inp.faces) == 1
+    group_jobs = resolve_jobs(jobs, GROUPS) if groups else 1
     done = [0.0, 0]  # weight and number of the faces finished
 
     def face_work(i):
@@ -493,10 +530,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
             sub(0.0, "integrating")
         else:
             sub = null_progress
-        f = assess_face(number, face, th, ref.value, opts, sub)
-        if cross_checks:
-            f.cross_check = face_cross_checks(f)
-        return f.detach()
+        return assess_face(number, face, th, ref.value, opts, sub, groups, group_jobs, cross_checks).detach()
 
     def finished(i, f):
         done[0] += weights[i]
@@ -550,6 +584,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                       validity=validity, fields=fields, provenance=prov,
                       options={**opts, "recheck_depth": opts["max_depth"] + 1, "jobs": n_jobs,
+                               "group_jobs": group_jobs,
                                "display_deflection": deflection,
                                "lref_sample_deflection": SAMPLE_DEFLECTION * size, "points_evaluated": points},
                       timings=timings, warnings=warnings)

@@ -8,11 +8,16 @@ already loaded (no file is read twice and no OpenCascade object is pickled); eac
 its face's record as plain data. Faces are handed out largest first (by their number of
 surface patches), so the longest face does not start last.
 
+A face assessed alone is integrated in patch groups instead (quadrature.patch_groups), which
+map_forked shares between this process and children forked from it once the face's field
+and trimmed domain are built.
+
 Forking is used only where it is safe: Linux, called from the main thread of a process that
 is not itself a pool worker, and not inside the FreeCAD GUI (its render and Qt threads).
 Elsewhere, and with jobs=1, the faces run in this process with progress inside each face.
 """
 import os
+import pickle
 import sys
 import threading
 
@@ -131,4 +136,65 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
                 raise
     finally:
         _WORK = None
+    return results
+
+
+def map_forked(work, n, jobs, while_waiting=None):
+    """[work(0), ..., work(n - 1)] with work(0) in this process and the others in up to
+    jobs - 1 children forked from it, for work on state this process has built (a face's
+    field and trimmed domain). Each child sends its pickled result through a pipe. Where
+    forking is not safe (fork_is_safe), with jobs <= 1, or for an item whose child died
+    before sending (a crash in the geometry kernel, memory), the item runs here instead:
+    the results are the same either way. while_waiting() is called once in this process
+    after its own items, before the children's results are collected (last, without
+    children). An exception raised by work is raised here."""
+    if n <= 1 or jobs <= 1 or not fork_is_safe():
+        results = [work(i) for i in range(n)]
+        if while_waiting is not None:
+            while_waiting()
+        return results
+    results = [None] * n
+    children = {}  # index -> (pid, read end)
+    try:
+        for i in range(1, min(n, jobs)):
+            r, w = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # child: compute, send, leave without the parent's exit handlers
+                os.close(r)
+                for _, other in children.values():
+                    os.close(other)
+                try:
+                    data = pickle.dumps((True, work(i)), pickle.HIGHEST_PROTOCOL)
+                except BaseException as exc:  # sent to the parent, raised there
+                    data = pickle.dumps((False, exc), pickle.HIGHEST_PROTOCOL)
+                with os.fdopen(w, "wb") as fh:
+                    fh.write(data)
+                os._exit(0)
+            os.close(w)
+            children[i] = (pid, r)
+        local = [0] + list(range(min(n, jobs), n))
+        for i in local:
+            results[i] = work(i)
+        if while_waiting is not None:
+            while_waiting()
+        for i in list(children):
+            pid, r = children.pop(i)
+            with os.fdopen(r, "rb") as fh:
+                data = fh.read()
+            os.waitpid(pid, 0)
+            if not data:  # the child died before it could send: do the item here
+                results[i] = work(i)
+                continue
+            ok, value = pickle.loads(data)
+            if not ok:
+                raise value
+            results[i] = value
+    finally:
+        for pid, r in children.values():  # left by an exception: stop and reap the children
+            try:
+                os.kill(pid, 9)
+                os.waitpid(pid, 0)
+            except OSError:
+                pass
+            os.close(r)
     return results

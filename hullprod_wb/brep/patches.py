@@ -20,11 +20,22 @@ def cluster_map(kind, x):
     at 1; 3: (1 - cos(pi x)) / 2, clustered at both ends. A function with a square-root
     end, f(c) ~ sqrt(c), becomes smooth in x; for a circle's strip width, trigonometric.
     """
+    kind, x = np.broadcast_arrays(np.asarray(kind), np.asarray(x, dtype=float))
+    c, dc = x.copy(), np.ones(x.shape)
+    if not kind.any():  # all affine: the common case
+        return c, dc
     h = 0.5 * np.pi
-    c = np.select([kind == 0, kind == 1, kind == 2],
-                  [x, 1.0 - np.cos(h * x), np.sin(h * x)], 0.5 * (1.0 - np.cos(np.pi * x)))
-    dc = np.select([kind == 0, kind == 1, kind == 2],
-                   [np.ones_like(x), h * np.sin(h * x), h * np.cos(h * x)], h * np.sin(np.pi * x))
+    for k in (1, 2, 3):  # each map on its own points only
+        i = np.nonzero(kind == k)
+        if i[0].size == 0:
+            continue
+        xi = x[i]
+        if k == 1:
+            c[i], dc[i] = 1.0 - np.cos(h * xi), h * np.sin(h * xi)
+        elif k == 2:
+            c[i], dc[i] = np.sin(h * xi), h * np.cos(h * xi)
+        else:
+            c[i], dc[i] = 0.5 * (1.0 - np.cos(np.pi * xi)), h * np.sin(np.pi * xi)
     return c, dc
 
 

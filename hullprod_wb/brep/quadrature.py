@@ -124,6 +124,11 @@ MAX_PIECES = 64
 #: A mixed cell's lines are taken on its local interpolant (see _Integrator._interpolants)
 #: when the interpolant's error estimate is within this share of the cell's budget.
 INTERPOLANT_SHARE = 0.1
+#: A face of at least GROUP_MIN_PATCHES boundary-fitted patches is integrated as GROUPS
+#: ranges of consecutive patches, each an adaptive integration of its own (as separate
+#: faces are), which processes can share (see patch_groups).
+GROUPS = 2
+GROUP_MIN_PATCHES = 256
 #: Number of candidate cells of largest |K| J kept for the singular-point audit.
 N_PEAKS = 10
 #: At most this many non-regular sample locations are kept.
@@ -410,7 +415,7 @@ class _Integrator:
     the values, or the lines for the LINE_Q quantities of mixed cells."""
 
     def __init__(self, domain, field, tau_H, tau_K, order, rtol, class_max_depth, u_breaks,
-                 v_breaks, progress):
+                 v_breaks, progress, patch_range=None):
         self.f = _Field(field)
         self.tau_H, self.tau_K = tau_H, tau_K
         # constants the level functions subtract from their field row (LEVEL_ROW)
@@ -424,14 +429,20 @@ class _Integrator:
         self.w_embedded = embedded_weights(self.x)
         self._grid_inverse, self._parent_vander = grid_matrices(self.x)
         self.patches = Patches.of(domain, u_breaks, v_breaks)
-        P = self.patches.size
+        pid = np.arange(self.patches.size)
+        if patch_range is not None:
+            pid = pid[slice(*patch_range)]
+            if pid.size == 0:
+                raise InputError("patch range %r holds none of the domain's %d patches"
+                                 % (tuple(patch_range), self.patches.size))
+        P = pid.size
+        self.n_initial = P
         self.nonregular = []
         self.n_nonregular = 0
         self.accepted = []  # dicts of arrays of accepted units, one per level
         self.err_acc = np.zeros(NQ)
         self.depth = 0
         self.pending = None  # units left unaccepted at the last level
-        pid = np.arange(P)
         z, o = np.zeros(P), np.ones(P)
         self.active = dict(pid=pid, s0=z, s1=o, t0=z, t1=o)
         self.active.update(self._eval_cells(self.active))
@@ -1214,7 +1225,7 @@ class _Integrator:
             order=self.order, rtol=self.rtol, max_depth=max_depth,
             depth_reached=int(units["depth"].max()), n_points=self.f.n_points,
             n_field_calls=self.f.n_calls, n_cells=4 * int(units["pid"].size),
-            n_initial_cells=self.patches.size, n_mixed_cells=int(units["mixed"].sum()),
+            n_initial_cells=self.n_initial, n_mixed_cells=int(units["mixed"].sum()),
             nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
             peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start,
             history=list(self.history))
@@ -1236,9 +1247,20 @@ def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
     return values, bounds
 
 
+def patch_groups(n_patches, min_patches=None):
+    """Patch index ranges [(start, stop), ...] in which a face of n_patches boundary-fitted
+    patches is integrated: GROUPS consecutive ranges of equal size when the face has at least
+    min_patches (default GROUP_MIN_PATCHES), else the whole face. It depends on the geometry
+    only, so the values do not depend on how many processes integrate the groups."""
+    n = int(n_patches)
+    g = GROUPS if n >= (GROUP_MIN_PATCHES if min_patches is None else min_patches) else 1
+    cuts = [(k * n) // g for k in range(g + 1)]
+    return [(a, b) for a, b in zip(cuts[:-1], cuts[1:])]
+
+
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
               v_breaks=(), progress=None, recheck=True, class_max_depth=3, reference=None,
-              lines=True):
+              lines=True, patch_range=None):
     """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
 
     domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
@@ -1254,7 +1276,9 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     integrated apart from its face: its share of the face's tolerance); lines: integrate
     mixed cells on lines (False: Gauss sums throughout, the quadtree's own error estimates;
     class areas then converge only like the cell size, for callers that need the area and
-    K integrals only). Returns a QuadratureResult.
+    K integrals only); patch_range: (start, stop) of the domain's patches to integrate
+    (default all; see patch_groups), with tolerances relative to their own integrals.
+    Returns a QuadratureResult.
     """
     if not isinstance(domain, TrimmedDomain):
         raise InputError("integrate() needs a TrimmedDomain, got %s" % type(domain).__name__)
@@ -1266,7 +1290,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
                          ">= 0, got %r, %r, %r" % (order, max_depth, class_max_depth))
     start = time.perf_counter()
     it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
-                     u_breaks, v_breaks, progress)
+                     u_breaks, v_breaks, progress, patch_range)
     it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
     it.lines = bool(lines)
     it.refine_to(int(max_depth))
