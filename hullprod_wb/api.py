@@ -50,6 +50,10 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         from .mesh.backend import assess_mesh
         return assess_mesh(source, lref=lref, h_f=h_f, k_f=k_f, with_fields=with_fields,
                            progress=progress)
+    if isinstance(source, (str, os.PathLike)):
+        # read the file and start its L_ref tessellation beside the loading of the backend
+        from .brep.lref_samples import read_and_start
+        source = read_and_start(source, faces)
     from .brep.backend import assess_brep
     return assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
                        progress=progress, **options)

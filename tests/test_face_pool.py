@@ -157,3 +157,46 @@ def test_a_face_assessed_alone_is_integrated_in_patch_groups():
     for m in ("I_D", "I_D_plus", "I_D_minus"):
         # the same face integrated whole: within the tolerance (1e-4), not to the bit
         assert both.validity[m].status == one.validity[m].status
+
+
+@needs_freecad
+@needs_fork
+def test_lref_tessellation_in_a_child_is_the_one_made_here():
+    from brep_shapes import hemisphere_with_disc
+    from hullprod_wb.brep.lref_samples import LrefTessellation, tessellate_faces
+    faces = list(hemisphere_with_disc().Faces)
+    here = tessellate_faces(faces, 0.02)
+    assert len(here[0]) > 0 and len(here[1]) > 0 and len(here[0]) % 3 == 0
+    child = LrefTessellation(faces, 0.02)
+    assert child._child is not None  # running beside this process
+    pts, tris, seconds = child.result()
+    assert (pts, tris) == here and seconds >= 0.0 and child._child is None
+    # a child killed before it sends: the tessellation is made here, the same
+    killed = LrefTessellation(faces, 0.02)
+    os.kill(killed._child[0], 9)
+    assert killed.result()[:2] == here
+    # a result no longer wanted: the child is stopped and reaped
+    unwanted = LrefTessellation(faces, 0.02)
+    pid = unwanted._child[0]
+    unwanted.close()
+    with pytest.raises(ChildProcessError):
+        os.waitpid(pid, 0)
+
+
+@needs_freecad
+def test_a_file_read_ahead_gives_the_values_of_its_shape(tmp_path):
+    from brep_shapes import sphere_cap
+    from hullprod_wb import assess
+    from hullprod_wb.brep.lref_samples import read_and_start
+    path = str(tmp_path / "cap.brep")
+    sphere_cap(1.0, 0.5).exportBrep(path)
+    inp = read_and_start(path)
+    assert inp.read_seconds >= 0.0 and inp.lref_tessellation is not None
+    inp.lref_tessellation.close()
+    from_file = assess(path, with_fields=False, jobs=1)
+    import Part
+    shape = Part.Shape()
+    shape.importBrep(path)
+    from_shape = assess(shape, with_fields=False, jobs=1)
+    assert from_file.reference_length.value == from_shape.reference_length.value
+    assert from_file.vector == from_shape.vector

@@ -26,7 +26,7 @@ from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sam
                       tessellation_samples)
 from .face_field import FaceField
 from .face_pool import map_faces, map_forked, resolve_jobs
-from .loading import load_brep
+from .loading import BRepInput, load_brep
 from .provenance import shape_provenance
 from .patches import Patches
 from .quadrature import GROUPS, QUANTITIES, integrate, patch_groups, patch_rule
@@ -475,7 +475,8 @@ def refinement_history(faces, lref):
 def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, with_fields=True,
                 progress=None, order=None, rtol=None, max_depth=None, audit=True, display_deflection=None,
                 cross_checks=True, jobs=None):
-    """Signature of a BRep (file path, Part.Shape or FreeCAD object) by exact quadrature.
+    """Signature of a BRep (file path, Part.Shape, FreeCAD object, or a BRepInput already
+    loaded, whose face selection then stands) by exact quadrature.
 
     lref: reference length in the shape's units (None: automatic); faces: 1-based face
     numbers; order, rtol, max_depth: quadrature settings (default 5, 1e-4, 5, rechecked at
@@ -493,13 +494,15 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     opts.update({k: v for k, v in (("order", order), ("rtol", rtol), ("max_depth", max_depth)) if v is not None})
     opts["audit"] = bool(audit)
     progress(0.0, "reading BRep")
-    inp = load_brep(source, faces)
-    timings["read"] = time.perf_counter() - t0
+    inp = source if isinstance(source, BRepInput) else load_brep(source, faces)
+    timings["read"] = inp.read_seconds if inp.read_seconds is not None else time.perf_counter() - t0
 
     t = time.perf_counter()
     size = inp.shape.BoundBox.DiagonalLength
+    occ_areas = [f.Area for _, f in inp.faces]  # while a started L_ref tessellation runs
     # the automatic L_ref from the nodes of one fixed tessellation, whatever the display
-    lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
+    lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size,
+                                        inp.lref_tessellation)
     if lref_samples is None:
         raise InputError("the faces could not be sampled (no tessellation): empty or invalid faces")
     ref = resolve_reference_length(lref_samples["points"], lref_samples["node_area"], explicit=lref,
@@ -512,7 +515,6 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     timings["display_samples"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    occ_areas = [f.Area for _, f in inp.faces]
     areas = np.maximum(np.array(occ_areas, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
     n_jobs = resolve_jobs(jobs, len(inp.faces))

@@ -8,11 +8,12 @@ import numpy as np
 
 from ..core.fields import DistributedFields
 
+from .lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401 (SAMPLE_DEFLECTION: the
+# deflection of the tessellation whose nodes give the automatic L_ref, with or without display
+# fields, so that L_ref never depends on the display settings)
+
 #: Default display deflection as a fraction of the shape's bounding-box diagonal.
 DISPLAY_DEFLECTION = 5e-3
-#: Deflection (same unit) of the tessellation whose nodes give the automatic L_ref, with or
-#: without display fields, so that L_ref never depends on the display settings.
-SAMPLE_DEFLECTION = 2e-2
 
 
 def face_display_mesh(face, deflection, field):
@@ -62,22 +63,20 @@ def sample_faces(face_fields, deflection):
     return out
 
 
-def tessellation_samples(faces, deflection):
+def tessellation_samples(faces, deflection, tessellation=None):
     """Points (n, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
-    of Part.Face), without fields: all the automatic reference length needs. Returns a dict
-    with points and node_area, or None when no face has a tessellation."""
-    points, triangles = [], []
-    offset = 0
-    for face in faces:
-        pts, tris = face.tessellate(deflection)
-        if len(pts) == 0 or len(tris) == 0:
-            continue
-        points.append(np.array([[p.x, p.y, p.z] for p in pts]))
-        triangles.append(np.asarray(tris, dtype=np.int64) + offset)
-        offset += len(pts)
-    if not points:
+    of Part.Face) at deflection, without fields: all the automatic reference length needs
+    (tessellation: an LrefTessellation of them already started). Returns a dict with points
+    and node_area, or None when no face has a tessellation."""
+    tess = tessellation or LrefTessellation(faces, deflection, fork=False)
+    try:
+        pts, tris, _ = tess.result()
+    finally:
+        tess.close()
+    if len(tris) == 0:
         return None
-    P, T = np.concatenate(points), np.concatenate(triangles)
+    P = np.frombuffer(pts, dtype=np.float64).reshape(-1, 3)
+    T = np.frombuffer(tris, dtype=np.int64).reshape(-1, 3)
     return {"points": P, "node_area": node_areas(P, T)}
 
 

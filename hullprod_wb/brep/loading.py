@@ -7,6 +7,7 @@ never modified (we work on a copy).
 import os
 import re
 from dataclasses import dataclass, field
+from typing import Optional
 
 from ..core.errors import InputError
 from ..core.inputs import describe_file
@@ -23,13 +24,17 @@ class BRepInput:
 
     shape: Part.Shape (a copy); faces: list of (number, Part.Face) with FreeCAD's 1-based
     Face numbering of the whole shape; info: input dict for the JSON document; units:
-    declared source unit and working unit.
+    declared source unit and working unit; read_seconds: time taken to read it, and
+    lref_tessellation: its automatic-L_ref tessellation when already started
+    (lref_samples.read_and_start).
     """
 
     shape: object
     faces: list
     info: dict
     units: dict = field(default_factory=dict)
+    read_seconds: Optional[float] = None
+    lref_tessellation: object = None
 
 
 def declared_unit(path, fmt):
