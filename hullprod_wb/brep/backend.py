@@ -586,7 +586,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                       validity=validity, fields=fields, provenance=prov,
                       options={**opts, "recheck_depth": opts["max_depth"] + 1, "jobs": n_jobs,
-                               "group_jobs": group_jobs,
+                               "group_jobs": min(group_jobs, max(f.quad.n_main for f in results)),
                                "display_deflection": deflection,
                                "lref_sample_deflection": SAMPLE_DEFLECTION * size, "points_evaluated": points},
                       timings=timings, warnings=warnings)
