@@ -4,6 +4,7 @@ The two numerical realizations are never converted into each other: a BRep is in
 natively, a triangle mesh through discrete curvature (paper section 4).
 """
 import os
+import sys
 
 from .core.constants import DEFAULT_HF, DEFAULT_KF
 from .core.errors import InputError
@@ -51,9 +52,20 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         return assess_mesh(source, lref=lref, h_f=h_f, k_f=k_f, with_fields=with_fields,
                            progress=progress)
     if isinstance(source, (str, os.PathLike)):
-        # read the file and start its L_ref tessellation beside the loading of the backend
-        from .brep.lref_samples import read_and_start
-        source = read_and_start(source, faces)
-    from .brep.backend import assess_brep
+        from .brep.face_pool import fork_is_safe
+        if fork_is_safe() and "FreeCAD" not in sys.modules:
+            # a child reads the file and sends its plain records while this process loads
+            # numpy and the backend (brep.plain_records); FreeCAD is never loaded here
+            from .brep.plain_records import ReadInChild
+            source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
+        else:  # read the file and start its L_ref tessellation beside the loading of the backend
+            from .brep.lref_samples import read_and_start
+            source = read_and_start(source, faces)
+    try:
+        from .brep.backend import assess_brep
+    except BaseException:
+        if hasattr(source, "close"):
+            source.close()
+        raise
     return assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
                        progress=progress, **options)

@@ -46,8 +46,22 @@ def freecad_available():
     return True
 
 
+#: Versions reported by the process that read the input (plain_records), when this one has
+#: not loaded FreeCAD itself.
+_REPORTED = None
+
+
+def set_reported_versions(reported):
+    """Record the FreeCAD and OpenCascade versions of the process that read the input."""
+    global _REPORTED
+    _REPORTED = dict(reported) if reported else None
+
+
 def versions():
-    """FreeCAD and OpenCascade versions as strings, or None where FreeCAD is absent."""
+    """FreeCAD and OpenCascade versions as strings, or None where FreeCAD is absent (those
+    of the reading process, set_reported_versions, when FreeCAD is not loaded here)."""
+    if _REPORTED is not None and "FreeCAD" not in sys.modules:
+        return dict(_REPORTED)
     try:
         FreeCAD = import_freecad()
         import Part

@@ -21,14 +21,18 @@ from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..core.validity import MetricValidity, Status
-from . import singular
+from ..freecad_env import set_reported_versions
+from . import plain_records, singular
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_field import FaceField
 from .face_pool import map_faces, map_forked, resolve_jobs
 from .loading import BRepInput, load_brep
+from .lref_samples import read_and_start
 from .provenance import shape_provenance
 from .patches import Patches
+from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
+from .recorded_shape import FaceRecord, RecordedShape
 from .quadrature import GROUPS, QUANTITIES, integrate, patch_groups, patch_rule
 from .trimmed_domain import TrimmedDomain
 
@@ -47,7 +51,7 @@ METRIC_QUANTITIES = {"I_D": ("int_abs_K", "A_valid"), "I_D_plus": ("int_K_plus",
 QUADRANT_MAX_DEPTH = 5
 QUADRANT_CLASS_DEPTH = 1
 #: Points per face for the pointwise cross-check against OpenCascade.
-CROSS_CHECK_POINTS = 7
+CROSS_CHECK_POINTS = plain_records.CROSS_CHECK_POINTS
 
 
 def _final(q):
@@ -55,27 +59,24 @@ def _final(q):
     return q.recheck if q.recheck is not None else q
 
 
-def cross_check_occ(ff, domain, n=CROSS_CHECK_POINTS):
-    """Max relative differences of S_u, S_v, H, K against OpenCascade at interior points."""
-    surf = ff.face.Surface
-    (u0, u1), (v0, v1) = domain.u_range, domain.v_range
-    t = (np.arange(n) + 0.5) / n
-    u = u0 + (u1 - u0) * t
-    v = v0 + (v1 - v0) * t[::-1]
+def cross_check_occ(ff, reference=None, n=CROSS_CHECK_POINTS):
+    """Max relative differences of S_u, S_v, H, K against OpenCascade at interior points of
+    the face's parameter range (plain_records.cross_check_params); reference: OpenCascade's
+    values there (plain_records.occ_reference), computed from ff.face when not given."""
+    if reference is None:
+        reference = occ_reference(ff.face, n)
+    u, v = (np.array(x) for x in cross_check_params(ff.evaluator.parameter_range, n))
     ours = ff(u, v)
     der = ff.evaluator.derivatives(u, v)
     worst = {"Su": 0.0, "Sv": 0.0, "H": 0.0, "K": 0.0}
     checked = 0
     for i in range(n):
-        try:
-            du = surf.getDN(u[i], v[i], 1, 0)
-            dv = surf.getDN(u[i], v[i], 0, 1)
-            Kocc = surf.curvature(u[i], v[i], "Gauss")
-            Hocc = ff.sign * surf.curvature(u[i], v[i], "Mean")
-        except Exception:  # undefined curvature at a degenerate point: nothing to compare
+        if reference[i] is None:  # undefined curvature at a degenerate point: nothing to compare
             continue
+        du, dv, Kocc, Hocc = reference[i]
+        Hocc = ff.sign * Hocc
         checked += 1
-        for name, a, b in (("Su", der[1][i], (du.x, du.y, du.z)), ("Sv", der[2][i], (dv.x, dv.y, dv.z))):
+        for name, a, b in (("Su", der[1][i], du), ("Sv", der[2][i], dv)):
             b = np.array(b)
             worst[name] = max(worst[name], float(np.linalg.norm(a - b) / max(np.linalg.norm(b), 1e-300)))
         for name, a, b in (("H", ours["H"][i], Hocc), ("K", ours["K"][i], Kocc)):
@@ -163,7 +164,7 @@ class FaceAssessment:
         self.number, self.ff, self.domain = number, ff, domain
         self.u_breaks, self.v_breaks = breaks  # knot lines and neighbourhood box lines
         self.degenerate, self.quadrants, self.quad, self.audits = degenerate, quadrants, quad, audits
-        self.surface_type = type(ff.face.Surface).__name__
+        self.surface_type = ff.surface_type
         self.kind = ff.kind
         self.cross_check = None
 
@@ -181,12 +182,14 @@ class FaceAssessment:
         return self
 
 
-def face_cross_checks(f, rule=None, seconds=0.0):
+def face_cross_checks(f, rule=None, seconds=0.0, reference=None):
     """Cross-checks of one assessed face (needs its field and domain): derivatives and H, K
-    against OpenCascade at interior points, and the independent fixed-rule area (rule: its
-    area_rule when already computed, in seconds)."""
+    against OpenCascade at interior points (reference: OpenCascade's values there, when
+    already known), and the independent fixed-rule area (rule: its area_rule when already
+    computed, in seconds)."""
     t = time.perf_counter()
-    rec = {"face": f.number, "occ_pointwise_max_relative": cross_check_occ(f.ff, f.domain)}
+    rec = {"face": f.number, "occ_pointwise_max_relative":
+           None if reference is PENDING else cross_check_occ(f.ff, reference)}
     if rule is None:
         rule = area_rule(f.ff, f.domain, f.u_breaks, f.v_breaks)
     rec["area"] = area_cross_check(rule, f.result.values["A"])
@@ -221,41 +224,67 @@ def polygon_domain(face):
     return domain
 
 
-def patch_count(face):
-    """Knot-span patches of a face's surface (1 for other surface types): the order in which
-    faces are handed to worker processes, largest first."""
-    surf = face.Surface
-    try:
-        return max(1, (len(surf.getUKnots()) - 1) * (len(surf.getVKnots()) - 1))
-    except Exception:  # not a B-spline surface
-        return 1
+class FaceSetup:
+    """What a face's integration needs before the class thresholds are known: its field and
+    trimmed domain, knot lines, degenerate set and neighbourhood quadrants, the knot and
+    box lines of its patches (gu, gv), the field with the neighbourhoods excluded, and the
+    independent area rule once computed (area_rule, with its seconds)."""
+
+    def __init__(self, face, area_check=False):
+        self.recorded = isinstance(face, FaceRecord)
+        domain = face.domain() if self.recorded else None
+        if domain is not None:
+            ff = face.field()
+            domain.fallback = None
+        else:
+            if self.recorded:  # a domain that needs OpenCascade itself: the face, read here
+                face = face.part_face()
+                self.recorded = False
+            ff = FaceField(face)
+            try:
+                domain = TrimmedDomain.from_face(face)
+                domain.fallback = None
+            except InputError as exc:
+                domain = polygon_domain(face)
+                domain.fallback = " ".join(str(exc).split())
+        self.ff, self.domain = ff, domain
+        u_breaks, v_breaks = ff.evaluator.continuity_breaks(urange=domain.u_range, vrange=domain.v_range)
+        self.u_breaks, self.v_breaks = u_breaks, v_breaks
+        self.deg = singular.find_degenerate(ff, domain, u_breaks, v_breaks)
+        self.quads = singular.neighbourhood_quadrants(self.deg, domain, u_breaks, v_breaks) if self.deg else []
+        self.gu, self.gv = u_breaks, v_breaks
+        self.main_field = ff
+        if self.quads:
+            qu, qv = singular.quadrant_breaks(self.quads)
+            self.gu = np.unique(np.concatenate([np.asarray(u_breaks, float), qu]))
+            self.gv = np.unique(np.concatenate([np.asarray(v_breaks, float), qv]))
+            self.main_field = singular.ExcludedBoxesField(ff, [q.box for q in self.quads])
+        self.check = {}
+        if area_check:
+            self.area_check()
+
+    def area_check(self):
+        """area_rule of the face (independent of the adaptive cubature), once."""
+        if "rule" not in self.check:
+            t = time.perf_counter()
+            self.check["rule"] = area_rule(self.ff, self.domain, self.gu, self.gv)
+            self.check["seconds"] = time.perf_counter() - t
 
 
 def assess_face(number, face, thresholds, lref, opts, progress=null_progress, groups=False, group_jobs=1,
-                cross_checks=True):
+                cross_checks=True, setup=None):
     """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
     separately through a graded map (singular.GradedQuadrantField), then audited. With
     groups, a face of many patches is integrated in patch groups (quadrature.patch_groups),
     in group_jobs processes (face_pool.map_forked; the values do not depend on it), and
-    this process computes the area cross-check while it waits for the others. cross_checks:
-    attach face_cross_checks."""
-    ff = FaceField(face)
-    try:
-        domain = TrimmedDomain.from_face(face)
-        domain.fallback = None
-    except InputError as exc:
-        domain = polygon_domain(face)
-        domain.fallback = " ".join(str(exc).split())
-    u_breaks, v_breaks = ff.evaluator.continuity_breaks(urange=domain.u_range, vrange=domain.v_range)
-    deg = singular.find_degenerate(ff, domain, u_breaks, v_breaks)
-    quads = singular.neighbourhood_quadrants(deg, domain, u_breaks, v_breaks) if deg else []
-    gu, gv = u_breaks, v_breaks
-    main_field = ff
-    if quads:
-        qu, qv = singular.quadrant_breaks(quads)
-        gu = np.unique(np.concatenate([np.asarray(u_breaks, float), qu]))
-        gv = np.unique(np.concatenate([np.asarray(v_breaks, float), qv]))
-        main_field = singular.ExcludedBoxesField(ff, [q.box for q in quads])
+    this process computes the area cross-check while it waits for the others (unless the
+    setup has it). cross_checks: attach face_cross_checks. face: a Part.Face, or a
+    recorded_shape.FaceRecord (the same field and domain from its records; OpenCascade's
+    cross-check values are compared later, recorded_cross_checks). setup: its FaceSetup
+    when already made."""
+    s = setup or FaceSetup(face)
+    ff, domain, deg, quads = s.ff, s.domain, s.deg, s.quads
+    u_breaks, v_breaks, gu, gv, main_field = s.u_breaks, s.v_breaks, s.gu, s.gv, s.main_field
     kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
     groups = patch_groups(Patches.of(domain, gu, gv).size) if groups else [None]
 
@@ -263,14 +292,8 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
         return integrate(domain, main_field, thresholds.tau_H, thresholds.tau_K, u_breaks=gu, v_breaks=gv,
                          progress=progress if g == 0 else None, patch_range=groups[g], **kw)
 
-    check = {}
-
-    def area_check():  # independent of the adaptive cubature: while other groups finish
-        t = time.perf_counter()
-        check["rule"] = area_rule(ff, domain, gu, gv)
-        check["seconds"] = time.perf_counter() - t
-
-    parts = map_forked(main_part, len(groups), group_jobs, while_waiting=area_check if cross_checks else None)
+    # the area rule is independent of the adaptive cubature: while other groups finish
+    parts = map_forked(main_part, len(groups), group_jobs, while_waiting=s.area_check if cross_checks else None)
     n_main = len(parts)
     unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0) if quads else None
     # Each neighbourhood quadrant may use up to a 1/(2 n) share of the face's tolerance; the
@@ -292,8 +315,25 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
             audits.append(singular.probe_side(ff, domain, side, u_breaks, v_breaks))
     f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
     if cross_checks:
-        f.cross_check = face_cross_checks(f, check.get("rule"), check.get("seconds", 0.0))
+        f.cross_check = face_cross_checks(f, s.check.get("rule"), s.check.get("seconds", 0.0),
+                                          reference=PENDING if s.recorded else None)
     return f
+
+
+#: face_cross_checks(reference=PENDING): OpenCascade's values come later (recorded_cross_checks).
+PENDING = "pending"
+
+
+def recorded_cross_checks(results, shape, late):
+    """Complete the OpenCascade cross-checks of faces assessed from records (reference
+    PENDING) with the reading process's values, late["occ_reference"] (per face of shape)."""
+    for i, f in enumerate(results):
+        rec = f.cross_check
+        if rec is not None and rec["occ_pointwise_max_relative"] is None:
+            t = time.perf_counter()
+            ff = shape.faces[i][1].field()
+            rec["occ_pointwise_max_relative"] = cross_check_occ(ff, late["occ_reference"][i])
+            rec["seconds"] += time.perf_counter() - t
 
 
 def _global_converged(faces, quantity, rtol):
@@ -487,6 +527,16 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     against OpenCascade and the independent area per face; jobs: worker processes for the
     faces (None: automatic, see face_pool.resolve_jobs; the values do not depend on it).
     """
+    try:
+        return _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rtol, max_depth,
+                            audit, display_deflection, cross_checks, jobs)
+    finally:
+        if isinstance(source, ReadInChild):
+            source.close()
+
+
+def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rtol, max_depth, audit,
+                 display_deflection, cross_checks, jobs):
     progress = progress or null_progress
     timings = {}
     t0 = time.perf_counter()
@@ -494,30 +544,50 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     opts.update({k: v for k, v in (("order", order), ("rtol", rtol), ("max_depth", max_depth)) if v is not None})
     opts["audit"] = bool(audit)
     progress(0.0, "reading BRep")
-    inp = source if isinstance(source, BRepInput) else load_brep(source, faces)
+    if isinstance(source, ReadInChild):
+        if source.unsupported is None:
+            inp = RecordedShape(source)
+        else:  # a face the records do not describe: read the file here
+            source.close()
+            inp = read_and_start(source.path, source.faces)
+    else:
+        inp = source if isinstance(source, BRepInput) else load_brep(source, faces)
+    recorded = isinstance(inp, RecordedShape)
+    if recorded:
+        set_reported_versions(inp.versions)
     timings["read"] = inp.read_seconds if inp.read_seconds is not None else time.perf_counter() - t0
 
     t = time.perf_counter()
-    size = inp.shape.BoundBox.DiagonalLength
-    occ_areas = [f.Area for _, f in inp.faces]  # while a started L_ref tessellation runs
-    # the automatic L_ref from the nodes of one fixed tessellation, whatever the display
-    lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size,
-                                        inp.lref_tessellation)
+    n_jobs = resolve_jobs(jobs, len(inp.faces))
+    # faces integrated in this process are set up while the L_ref tessellation runs beside
+    # (their set-up does not depend on the thresholds)
+    setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces] if n_jobs == 1 else None
+    if recorded:
+        size = inp.size
+        occ_areas = [f.area for _, f in inp.faces]
+        lref_samples = inp.lref_samples()
+    else:
+        size = inp.shape.BoundBox.DiagonalLength
+        occ_areas = [f.Area for _, f in inp.faces]  # while a started L_ref tessellation runs
+        # the automatic L_ref from the nodes of one fixed tessellation, whatever the display
+        lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size,
+                                            inp.lref_tessellation)
     if lref_samples is None:
         raise InputError("the faces could not be sampled (no tessellation): empty or invalid faces")
     ref = resolve_reference_length(lref_samples["points"], lref_samples["node_area"], explicit=lref,
                                    units=inp.units.get("working_unit", ""))
     deflection = (display_deflection or DISPLAY_DEFLECTION * size) if with_fields else None
-    samples = sample_faces([(n, FaceField(f)) for n, f in inp.faces], deflection) if with_fields else None
-    if with_fields and samples is None:
-        raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
+    samples = None
+    if with_fields and not recorded:  # from records: after the quadrature, with the display meshes
+        samples = sample_faces([(n, FaceField(f)) for n, f in inp.faces], deflection)
+        if samples is None:
+            raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
     th = Thresholds(ref.value, h_f, k_f)
     timings["display_samples"] = time.perf_counter() - t
 
     t = time.perf_counter()
     areas = np.maximum(np.array(occ_areas, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
-    n_jobs = resolve_jobs(jobs, len(inp.faces))
     # a face assessed alone is integrated in patch groups, which share the CPUs instead of
     # faces (several faces: the faces do)
     groups = len(inp.faces) == 1
@@ -532,7 +602,8 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
             sub(0.0, "integrating")
         else:
             sub = null_progress
-        return assess_face(number, face, th, ref.value, opts, sub, groups, group_jobs, cross_checks).detach()
+        return assess_face(number, face, th, ref.value, opts, sub, groups, group_jobs, cross_checks,
+                           setups[i] if setups else None).detach()
 
     def finished(i, f):
         done[0] += weights[i]
@@ -545,12 +616,25 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
 
     def shape_records():  # in this process while the workers integrate
         tp = time.perf_counter()
-        prov.update(shape_provenance(inp.shape, inp.faces, occ_areas))
+        if not recorded:
+            prov.update(shape_provenance(inp.shape, inp.faces, occ_areas))
         timings["provenance"] = time.perf_counter() - tp
 
-    results = map_faces(face_work, len(inp.faces), n_jobs, cost=[patch_count(f) for _, f in inp.faces],
-                        on_done=finished, labels=["Face%d" % n for n, _ in inp.faces],
-                        while_waiting=shape_records)
+    cost = [f.patch_count if recorded else patch_count(f) for _, f in inp.faces]
+    results = map_faces(face_work, len(inp.faces), n_jobs, cost=cost, on_done=finished,
+                        labels=["Face%d" % n for n, _ in inp.faces], while_waiting=shape_records)
+    if recorded:  # what the reading process made last: provenance, OpenCascade's values
+        tp = time.perf_counter()
+        late = inp.late(with_fields, display_deflection)
+        prov.update(late["provenance"])
+        if cross_checks:
+            recorded_cross_checks(results, inp, late)
+        if with_fields:
+            samples = sample_faces([(n, f.field()) for n, f in inp.faces], deflection, late["display"])
+            if samples is None:
+                raise InputError("the faces could not be sampled (no display tessellation): "
+                                 "empty or invalid faces")
+        timings["provenance"] += time.perf_counter() - tp
     timings["quadrature"] = time.perf_counter() - t
 
     integrals = SurfaceIntegrals.zero()
@@ -581,6 +665,8 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     points = sum(r["points"] for r in rows)
     timings["total"] = time.perf_counter() - t0
     info = dict(inp.info)
+    prov["reading"] = ("OpenCascade in a separate process; faces integrated from its plain records "
+                       "(poles, knots, weights, p-curves)" if recorded else "OpenCascade in this process")
     warnings = [ref.warning] if ref.warning else []
     progress(1.0, "done: %d quadrature points" % points)
     return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,

@@ -250,9 +250,13 @@ class SegmentField:
         differ in sign: safeguarded Newton on the power series (exact derivative), a step
         outside the bracket replaced by bisection, until a step is below ztol (in z) or
         NEWTON_STEPS; a zero bracket end is returned as it is."""
-        C = self.power[seg, row].copy()
-        C[:, 0] -= offset
-        D = C[:, 1:] * np.arange(1, C.shape[1])
+        k, d = seg.size, self.power.shape[2]
+        # rows of f and of f' (its leading coefficient a zero, which leaves Horner's
+        # arithmetic unchanged): both in one Horner pass per step
+        CD = np.zeros((2, k, d))
+        CD[0] = self.power[seg, row]
+        CD[0, :, 0] -= offset
+        CD[1, :, :-1] = CD[0, :, 1:] * np.arange(1, d)
         za, zb = self.local(a, seg), self.local(b, seg)
         neg_a = fa < 0.0
         lo, hi = np.where(neg_a, za, zb), np.where(neg_a, zb, za)  # f(lo) < 0 < f(hi)
@@ -261,24 +265,31 @@ class SegmentField:
             z = lo + np.nan_to_num(flo / (flo - fhi), nan=0.5) * (hi - lo)
         z = np.where(fa == 0.0, za, np.where(fb == 0.0, zb, z))
         act = np.nonzero((fa != 0.0) & (fb != 0.0))[0]
-        for _ in range(NEWTON_STEPS):
-            if act.size == 0:
-                break
-            zi = z[act]
-            f, df = horner(C[act], zi), horner(D[act], zi)
-            neg = f < 0.0
-            lo[act] = np.where(neg, zi, lo[act])
-            hi[act] = np.where(neg, hi[act], zi)
-            with np.errstate(divide="ignore", invalid="ignore"):
+        # the open brackets' state, compacted as brackets close
+        cd, zi, l, h = CD[:, act].reshape(-1, d), z[act], lo[act], hi[act]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for _ in range(NEWTON_STEPS):
+                if act.size == 0:
+                    break
+                n = act.size
+                fd = horner(cd, np.concatenate((zi, zi)))
+                f, df = fd[:n], fd[n:]
+                neg = f < 0.0
+                l = np.where(neg, zi, l)
+                h = np.where(neg, h, zi)
                 step = f / df
-            zn = zi - step
-            l, h = lo[act], hi[act]
-            small = np.abs(step) <= ztol  # converged (the step may round onto a bracket end)
-            inside = np.isfinite(zn) & ((zn - l) * (zn - h) < 0.0)
-            zn = np.where(inside | small, zn, 0.5 * (l + h))
-            done = small | (f == 0.0) | (np.abs(h - l) <= ztol)
-            z[act] = np.where(f == 0.0, zi, zn)
-            act = act[~done]
+                zn = zi - step
+                small = np.abs(step) <= ztol  # converged (the step may round onto a bracket end)
+                inside = np.isfinite(zn) & ((zn - l) * (zn - h) < 0.0)
+                zn = np.where(inside | small, zn, 0.5 * (l + h))
+                done = small | (f == 0.0) | (np.abs(h - l) <= ztol)
+                zi = np.where(f == 0.0, zi, zn)
+                if done.any():
+                    z[act[done]] = zi[done]
+                    keep = ~done
+                    act, zi, l, h = act[keep], zi[keep], l[keep], h[keep]
+                    cd = cd[np.concatenate((keep, keep))]
+        z[act] = zi
         return self.x0[seg] + 0.5 * (z + 1.0) * (self.x1[seg] - self.x0[seg])
 
     def integrals(self, seg, a, b):
@@ -293,7 +304,14 @@ class SegmentField:
         AJ, AKJ = (A[seg] for A in self._antiderivatives)
         za, zb = self.local(a, seg), self.local(b, seg)
         h = 0.5 * (self.x1[seg] - self.x0[seg])
-        return h * (horner(AJ, zb) - horner(AJ, za)), h * (horner(AKJ, zb) - horner(AKJ, za))
+        k = seg.size
+        # both antiderivatives at both ends in one Horner pass (AJ padded with leading zeros)
+        A = np.zeros((4, k, AKJ.shape[1]))
+        A[0, :, :AJ.shape[1]] = AJ
+        A[1, :, :AJ.shape[1]] = AJ
+        A[2], A[3] = AKJ, AKJ
+        v = horner(A.reshape(4 * k, -1), np.concatenate((zb, za, zb, za))).reshape(4, k)
+        return h * (v[0] - v[1]), h * (v[2] - v[3])
 
     def window_min(self, row, offset, sign, x0, x1):
         """Least value (k,) over [x0, x1] (k,) of sign (series row - offset) (all (k,)) on every

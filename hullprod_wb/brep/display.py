@@ -7,45 +7,47 @@ nodes and never enter the integrals (paper section 4.1).
 import numpy as np
 
 from ..core.fields import DistributedFields
-
-from .lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401 (SAMPLE_DEFLECTION: the
-# deflection of the tessellation whose nodes give the automatic L_ref, with or without display
-# fields, so that L_ref never depends on the display settings)
-
-#: Default display deflection as a fraction of the shape's bounding-box diagonal.
-DISPLAY_DEFLECTION = 5e-3
+# SAMPLE_DEFLECTION: the deflection of the tessellation whose nodes give the automatic L_ref,
+# with or without display fields, so that L_ref never depends on the display settings
+from .lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401
+from .plain_records import DISPLAY_DEFLECTION, display_mesh  # noqa: F401
 
 
-def face_display_mesh(face, deflection, field):
-    """(uv (n, 2), field values at uv, triangles (m, 3)) of OpenCascade's tessellation of face.
+
+def face_display_mesh(mesh, field):
+    """(uv (n, 2), field values at uv, triangles (m, 3)) of OpenCascade's tessellation of a
+    face, mesh = plain_records.display_mesh(face, deflection).
 
     FreeCAD's tessellate() reorders and merges nodes; its triangles are mapped back to the
     triangulation's (u, v) nodes by nearest 3-D position.
     """
-    pts, tris = face.tessellate(deflection)
-    uv = np.asarray(face.getUVNodes(), dtype=float)
+    pts, tris, uvs = mesh
+    uv = np.frombuffer(uvs, dtype=np.float64).reshape(-1, 2)
     if len(pts) == 0 or len(uv) == 0:
         return uv, None, np.zeros((0, 3), dtype=np.int64)
     values = field(uv[:, 0], uv[:, 1])
-    P = np.array([[p.x, p.y, p.z] for p in pts])
+    P = np.frombuffer(pts, dtype=np.float64).reshape(-1, 3)
     from scipy.spatial import cKDTree  # only when fields are wanted (import 0.07 s)
     _, index = cKDTree(values["points"]).query(P)
-    T = index[np.asarray(tris, dtype=np.int64)]
+    T = index[np.frombuffer(tris, dtype=np.int64).reshape(-1, 3)]
     keep = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])
     return uv, values, T[keep]
 
 
-def sample_faces(face_fields, deflection):
+def sample_faces(face_fields, deflection, meshes=None):
     """Exact samples at the display nodes of every face.
 
-    face_fields: list of (face number, FaceField). Returns dict of concatenated arrays:
-    points (n, 3), triangles (m, 3), uv (n, 2), K, H, k1, k2 (n,), valid (n,) bool, face_id
-    (n,) int (1-based), and node_area (n,) barycentric areas of the display triangles.
+    face_fields: list of (face number, FaceField); meshes: their display tessellations
+    (plain_records.display_mesh) when already made, else those of the fields' faces at
+    deflection. Returns dict of concatenated arrays: points (n, 3), triangles (m, 3), uv
+    (n, 2), K, H, k1, k2 (n,), valid (n,) bool, face_id (n,) int (1-based), and node_area
+    (n,) barycentric areas of the display triangles.
     """
     parts = {k: [] for k in ("points", "triangles", "uv", "K", "H", "k1", "k2", "valid", "face_id")}
     offset = 0
-    for number, ff in face_fields:
-        uv, f, T = face_display_mesh(ff.face, deflection, ff)
+    for i, (number, ff) in enumerate(face_fields):
+        mesh = meshes[i] if meshes is not None else display_mesh(ff.face, deflection)
+        uv, f, T = face_display_mesh(mesh, ff)
         if f is None:
             continue
         parts["points"].append(f["points"])

@@ -10,11 +10,14 @@ class FaceField:
     """Callable field of a Part.Face for the quadrature, counting evaluated points.
 
     field(u, v) with u, v (n,) float returns dict(J, K, H, k1, k2, regular, points).
+    face may be None for a field built from a face's plain records (recorded_shape): then
+    evaluator and surface_type (FreeCAD's name of the face's surface type) are given.
     """
 
-    def __init__(self, face, evaluator=None):
+    def __init__(self, face, evaluator=None, surface_type=None):
         self.face = face
         self.evaluator = evaluator or SurfaceEvaluator.for_face(face)
+        self.surface_type = surface_type or type(face.Surface).__name__
         self.kind = self.evaluator.kind
         self.sign = self.evaluator.orientation_sign
         self.points_evaluated = 0

@@ -25,6 +25,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..core.errors import InputError
+from .plain_records import nurbs_record
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
@@ -211,51 +212,27 @@ class NurbsSurfaceData:
     @classmethod
     def from_surface(cls, surface):
         """Extract the data of a Part.BSplineSurface or Part.BezierSurface (not modified)."""
-        name = type(surface).__name__
-        if name == "BezierSurface":
-            return cls._from_bezier(surface)
-        if name == "BSplineSurface":
-            return cls._from_bspline(surface)
-        raise InputError("expected a Part.BSplineSurface or Part.BezierSurface, got %s" % name)
-
-    @staticmethod
-    def _poles_weights(surface):
-        poles = np.array([[(pt.x, pt.y, pt.z) for pt in row] for row in surface.getPoles()], dtype=float)
-        weights = None
-        if surface.isURational() or surface.isVRational():
-            weights = np.array(surface.getWeights(), dtype=float)
-        return poles, weights
+        rec = nurbs_record(surface)
+        if rec is None:
+            raise InputError("expected a Part.BSplineSurface or Part.BezierSurface, got %s"
+                             % type(surface).__name__)
+        return cls.from_record(rec)
 
     @classmethod
-    def _from_bezier(cls, surface):
-        p, q = surface.UDegree, surface.VDegree
-        poles, weights = cls._poles_weights(surface)
-        return cls(p, q, [0.0] * (p + 1) + [1.0] * (p + 1), [0.0] * (q + 1) + [1.0] * (q + 1),
-                   poles, weights)
-
-    @classmethod
-    def _from_bspline(cls, surface):
-        u0, u1, v0, v1 = surface.bounds()
-        uper, vper = surface.isUPeriodic(), surface.isVPeriodic()
-        uknots_d = np.array(surface.getUKnots(), dtype=float)
-        vknots_d = np.array(surface.getVKnots(), dtype=float)
-        umults = np.array(surface.getUMultiplicities(), dtype=int)
-        vmults = np.array(surface.getVMultiplicities(), dtype=int)
-        work = surface
-        if uper or vper:
-            work = surface.copy()  # never modify the caller's geometry
-            if uper:
-                work.setUNotPeriodic()
-            if vper:
-                work.setVNotPeriodic()
-        poles, weights = cls._poles_weights(work)
-        flat_u = np.repeat(np.array(work.getUKnots(), dtype=float), work.getUMultiplicities())
-        flat_v = np.repeat(np.array(work.getVKnots(), dtype=float), work.getVMultiplicities())
-        # the domain of the un-periodised copy is its FirstKnotIndex..LastKnotIndex knots
-        return cls(work.UDegree, work.VDegree, flat_u, flat_v, poles, weights,
-                   urange=(float(u0), float(u1)), vrange=(float(v0), float(v1)),
-                   uperiod=float(u1 - u0) if uper else None, vperiod=float(v1 - v0) if vper else None,
-                   uknots_distinct=uknots_d, umults=umults, vknots_distinct=vknots_d, vmults=vmults)
+    def from_record(cls, rec):
+        """From plain_records.nurbs_record's plain data (the same numbers)."""
+        rec = dict(rec)
+        poles = np.array(rec.pop("poles"), dtype=float)
+        weights = rec.pop("weights")
+        weights = None if weights is None else np.array(weights, dtype=float)
+        for k in ("uknots_distinct", "vknots_distinct"):
+            if k in rec:
+                rec[k] = np.array(rec[k], dtype=float)
+        for k in ("umults", "vmults"):
+            if k in rec:
+                rec[k] = np.array(rec[k], dtype=int)
+        return cls(rec.pop("udegree"), rec.pop("vdegree"), np.array(rec.pop("uknots"), dtype=float),
+                   np.array(rec.pop("vknots"), dtype=float), poles, weights, **rec)
 
     # ------------------------------------------------------------------ properties
     @property

@@ -1,8 +1,11 @@
 """Representation provenance of a BRep: faces, surface types, areas, topology, edge
-continuity (C0 creases) and whether the shape is a half or a full hull."""
-from collections import Counter
+continuity (C0 creases) and whether the shape is a half or a full hull.
 
-import numpy as np
+Plain Python and OpenCascade only (no numpy): the process that reads a file for its plain
+records (plain_records) makes it without loading numpy.
+"""
+import math
+from collections import Counter
 
 #: Normals on the two sides of a shared edge differing by more than this are a C0 crease.
 CREASE_ANGLE_DEG = 1.0
@@ -12,15 +15,16 @@ EDGE_SAMPLES = 5
 
 def _edge_params(edge, n=EDGE_SAMPLES):
     a, b = edge.FirstParameter, edge.LastParameter
-    return [a + (b - a) * t for t in np.linspace(0.05, 0.95, n)]
+    from .plain_records import linspace
+    return [a + (b - a) * t for t in linspace(0.05, 0.95, n)]
 
 
 def _normals_on_edge(face, edge, ts, points):
     """Unit normals (k, 3) of face at parameters ts (k,) of its boundary edge (points: the
     3-D points): (u, v) from the edge's p-curve on the face (exact, cheap), else by
-    projection. A normal that is undefined (degenerate point) is NaN."""
+    projection. A normal that is undefined (degenerate point) is None."""
     pc = face.curveOnSurface(edge)
-    out = np.full((len(ts), 3), np.nan)
+    out = [None] * len(ts)
     for i, (t, p) in enumerate(zip(ts, points)):
         try:
             if pc is not None:
@@ -88,11 +92,10 @@ def edge_report(shape, faces):
             n_shared += 1
             shared_len += 0.5 * edge.Length
             mine = _normals_on_edge(face, edge, ts, pts)
-            theirs = np.array([_normals_on_edge(partner[1], oe, [ot], [p])[0]
-                               for (oe, ot), p in zip(partner[2], pts)])
-            cos = np.abs(np.einsum("ij,ij->i", mine, theirs))
-            angles = np.degrees(np.arccos(np.minimum(1.0, cos[np.isfinite(cos)])))
-            max_angle = float(angles.max()) if angles.size else None
+            theirs = [_normals_on_edge(partner[1], oe, [ot], [p])[0] for (oe, ot), p in zip(partner[2], pts)]
+            angles = [math.degrees(math.acos(min(1.0, abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]))))
+                      for a, b in zip(mine, theirs) if a is not None and b is not None]
+            max_angle = max(angles) if angles else None
             if max_angle is not None and max_angle > CREASE_ANGLE_DEG:
                 key = tuple(sorted((number, partner[0])))
                 rec = creases.setdefault(key, {"faces": list(key), "length": 0.0, "max_normal_angle_deg": 0.0})

@@ -19,6 +19,7 @@ from ..core.errors import InputError
 from . import differential
 from .analytic_surfaces import analytic_from_surface
 from .nurbs import NurbsSurfaceData, _as_points, knot_breaks
+from .plain_records import orientation_sign_of, unwrap_surface  # noqa: F401 (part of this module's API)
 
 
 def face_surface(face):
@@ -36,21 +37,6 @@ def face_surface(face):
     except Exception as exc:  # OCC raises its own exception types
         raise InputError("the face's surface cannot be read by FreeCAD: %s" % exc) from exc
     return surface, prange
-
-
-def unwrap_surface(surface):
-    """Strip Part.RectangularTrimmedSurface wrappers (same parameterisation as the basis)."""
-    while type(surface).__name__ == "RectangularTrimmedSurface":
-        surface = surface.BasisSurface
-    return surface
-
-
-def orientation_sign_of(face):
-    """+1 for a Forward (or Internal/External) face, -1 for a Reversed one.
-
-    Only REVERSED flips the normal in OpenCascade's topology (BRepAdaptor, BRepLProp).
-    """
-    return -1 if getattr(face, "Orientation", "Forward") == "Reversed" else 1
 
 
 class _OccBackend:
@@ -144,6 +130,20 @@ class SurfaceEvaluator:
             else:
                 self.kind = "occ:" + name
                 self._backend = _OccBackend(self.surface)
+
+    @classmethod
+    def from_record(cls, rec):
+        """Evaluator of a B-spline or Bezier face from plain_records.face_record's data
+        (no Part surface: surface is None), the same as for_face of that face."""
+        self = cls.__new__(cls)
+        self.surface = None
+        self.orientation_sign = int(rec["orientation_sign"])
+        self.parameter_range = tuple(float(x) for x in rec["parameter_range"])
+        self.nurbs = NurbsSurfaceData.from_record(rec["nurbs"])
+        self.analytic = None
+        self.kind = rec["kind"]
+        self._backend = self.nurbs
+        return self
 
     @classmethod
     def for_face(cls, face):

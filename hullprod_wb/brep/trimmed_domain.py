@@ -30,6 +30,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from .nurbs import basis_derivatives, find_spans
+from .plain_records import face_pcurves, pcurve_record, xy
 
 #: Samples per polynomial span of a p-curve (bracketing of u-extrema and crossings).
 SAMPLES_PER_SPAN = 16
@@ -283,7 +284,7 @@ class OccCurve2D(Curve2D):
 
     @staticmethod
     def _points(method, s):
-        return np.array([_vec2(method(float(x))) for x in np.asarray(s, dtype=float).ravel()],
+        return np.array([xy(method(float(x))) for x in np.asarray(s, dtype=float).ravel()],
                         dtype=float).reshape(-1, 2)
 
     def value(self, s):
@@ -296,48 +297,38 @@ class OccCurve2D(Curve2D):
         return np.linspace(self.s0, self.s1, self.n_samples + 1)
 
 
-def _vec2(p):
-    return (float(p.x), float(p.y))
+def curve_from_record(rec):
+    """Exact numpy evaluator of a p-curve from plain_records.pcurve_record's data: a line as
+    a degree-1 B-spline (Line2d is affine in its parameter), a circle or ellipse as a
+    :class:`ConicArc2D`, a B-spline or Bezier curve as a :class:`NurbsCurve2D`; None when the
+    conversion does not reproduce OpenCascade's points (the record's check samples) to 1e-12
+    of the curve's size."""
+    s0, s1 = rec["s0"], rec["s1"]
+    kind = rec["kind"]
+    if kind == "line":
+        curve = NurbsCurve2D.line(rec["p0"], rec["p1"], s0, s1)
+    elif kind == "conic":
+        curve = ConicArc2D(rec["center"], rec["xaxis"], rec["yaxis"], rec["rx"], rec["ry"], s0, s1)
+    elif kind == "nurbs":
+        curve = NurbsCurve2D(rec["degree"], rec["knots"], rec["poles"], rec["weights"], s0, s1)
+    else:
+        return None
+    s = np.array(rec["check_s"], dtype=float)
+    ref = np.array(rec["check_uv"], dtype=float)
+    size = max(1.0, float(np.abs(ref).max()))
+    if np.abs(curve.value(s) - ref).max() > 1e-12 * size:
+        return None
+    return curve
 
 
 def curve_from_geom2d(geom, s0, s1):
-    """Exact numpy evaluator of a FreeCAD Geom2d curve on [s0, s1].
-
-    Lines become degree-1 B-splines (Line2d is affine in its parameter), circles and
-    ellipses :class:`ConicArc2D`, B-spline and Bezier curves :class:`NurbsCurve2D` (a
-    periodic B-spline is unperiodised on a copy, which keeps its parameterisation); any
-    other type, or a conversion that does not reproduce OCC's points to 1e-12 of the
-    curve's size, falls back to :class:`OccCurve2D`.
-    """
-    kind = type(geom).__name__
-    s0, s1 = float(s0), float(s1)
-    curve = None
-    if kind in ("Line2d", "Line2dSegment"):
-        curve = NurbsCurve2D.line(_vec2(geom.value(s0)), _vec2(geom.value(s1)), s0, s1)
-    elif kind in ("Circle2d", "ArcOfCircle2d"):
-        curve = ConicArc2D(_vec2(geom.Location), _vec2(geom.XAxis), _vec2(geom.YAxis),
-                           geom.Radius, geom.Radius, s0, s1)
-    elif kind in ("Ellipse2d", "ArcOfEllipse2d"):
-        curve = ConicArc2D(_vec2(geom.Location), _vec2(geom.XAxis), _vec2(geom.YAxis),
-                           geom.MajorRadius, geom.MinorRadius, s0, s1)
-    elif kind in ("BSplineCurve2d", "BezierCurve2d"):
-        g = geom.copy()
-        if kind == "BSplineCurve2d" and g.isPeriodic():
-            g.setNotPeriodic()
-        poles = [_vec2(p) for p in g.getPoles()]
-        weights = list(g.getWeights())
-        if kind == "BSplineCurve2d":
-            knots = list(g.KnotSequence)
-        else:
-            knots = [0.0] * (g.Degree + 1) + [1.0] * (g.Degree + 1)
-        curve = NurbsCurve2D(g.Degree, knots, poles, weights, s0, s1)
-    if curve is not None:
-        s = np.linspace(s0, s1, 5)
-        ref = np.array([_vec2(geom.value(float(x))) for x in s])
-        size = max(1.0, float(np.abs(ref).max()))
-        if np.abs(curve.value(s) - ref).max() > 1e-12 * size:
-            curve = None
-    return curve if curve is not None else OccCurve2D(geom, s0, s1)
+    """Exact numpy evaluator of a FreeCAD Geom2d curve on [s0, s1]: curve_from_record of its
+    plain_records.pcurve_record (a periodic B-spline unperiodised on a copy, which keeps its
+    parameterisation); any other type, or a conversion that fails its check, falls back to
+    :class:`OccCurve2D`."""
+    rec = pcurve_record(geom, s0, s1)
+    curve = None if rec is None else curve_from_record(rec)
+    return curve if curve is not None else OccCurve2D(geom, float(s0), float(s1))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -641,28 +632,40 @@ class TrimmedDomain:
         """
         frame = plane_frame(face)
         curves, edges, repairs = [], [], []
-        for wire in face.Wires:
-            for edge in wire.childShapes():
-                if edge.ShapeType != "Edge":
-                    continue
-                pc = face.curveOnSurface(edge)
-                if frame is not None:
-                    curve, note = plane_pcurve(edge, pc, frame)
-                    if note:
-                        repairs.append("edge %d: %s" % (len(curves), note))
-                elif pc is None:
-                    raise InputError("face edge has no curve in the face's parameter space "
-                                     "(p-curve); repair the shape (e.g. Part's shape fixer)")
-                else:
-                    curve = curve_from_geom2d(*pc)
-                curves.append(curve)
-                edges.append(edge)
+        for edge, pc in face_pcurves(face):
+            if frame is not None:
+                curve, note = plane_pcurve(edge, pc, frame)
+                if note:
+                    repairs.append("edge %d: %s" % (len(curves), note))
+            elif pc is None:
+                raise InputError("face edge has no curve in the face's parameter space "
+                                 "(p-curve); repair the shape (e.g. Part's shape fixer)")
+            else:
+                curve = curve_from_geom2d(*pc)
+            curves.append(curve)
+            edges.append(edge)
         try:
             domain = cls(curves, repairs)
         except OpenTrimLoops as exc:
             segments, notes = close_gaps(face, curves, edges, exc)
             domain = cls(curves + segments, repairs + notes)
         domain.face_parameter_range = tuple(face.ParameterRange)
+        return domain
+
+    @classmethod
+    def from_record(cls, rec):
+        """Domain of a face from plain_records.face_record's p-curves, the same as from_face
+        gives for that face; None when a p-curve's conversion fails its check or the loops
+        are open (from_face then needs the face itself: OpenCascade curves, vertex
+        tolerances)."""
+        curves = [curve_from_record(r) for r in rec["pcurves"]]
+        if any(c is None for c in curves):
+            return None
+        try:
+            domain = cls(curves)
+        except OpenTrimLoops:
+            return None
+        domain.face_parameter_range = tuple(rec["parameter_range"])
         return domain
 
     # -- construction -------------------------------------------------------------------------

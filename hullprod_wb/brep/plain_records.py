@@ -1,0 +1,338 @@
+"""Plain-data records of a BRep file read by OpenCascade, made in a child process.
+
+A BRep file's assessment needs OpenCascade only to read the geometry: its B-spline and
+Bezier faces are integrated from poles, knots and weights, their trimmed domains from the
+p-curves' data. So a child forked at the start reads the file with FreeCAD, turns every
+face into plain numbers (lists, tuples, arrays of doubles: see face_record), makes the
+tessellations and the OpenCascade values the records need, and sends them to the parent
+through a pipe, while the parent loads numpy and the numerical modules; the parent never
+loads FreeCAD (recorded_shape builds the same fields and domains from the records as from
+the faces, and the results are the same to the bit).
+
+The child sends three frames: the face records and the file's description; the nodes of
+the automatic-L_ref tessellation; then what is only needed at the end (provenance,
+OpenCascade's values at the cross-check points, the display tessellation). A shape with a
+face this module does not describe (another surface type, a planar face, a p-curve of
+another type or none) is reported as unsupported, and the parent reads the file itself.
+
+Nothing in this module imports numpy at import time: the child stays light until it has
+sent the first two frames.
+"""
+import os
+import pickle
+import struct
+import time
+from array import array
+
+from ..core.errors import InputError
+
+#: Cross-check points per face (backend.cross_check_occ compares at the same points).
+CROSS_CHECK_POINTS = 7
+#: Samples of each p-curve at which its conversion is checked against OpenCascade.
+PCURVE_CHECK_SAMPLES = 5
+#: Default display deflection as a fraction of the shape's bounding-box diagonal.
+DISPLAY_DEFLECTION = 5e-3
+
+
+def unwrap_surface(surface):
+    """Strip Part.RectangularTrimmedSurface wrappers (same parameterisation as the basis)."""
+    while type(surface).__name__ == "RectangularTrimmedSurface":
+        surface = surface.BasisSurface
+    return surface
+
+
+def orientation_sign_of(face):
+    """+1 for a Forward (or Internal/External) face, -1 for a Reversed one.
+
+    Only REVERSED flips the normal in OpenCascade's topology (BRepAdaptor, BRepLProp).
+    """
+    return -1 if getattr(face, "Orientation", "Forward") == "Reversed" else 1
+
+
+def xy(p):
+    """(x, y) floats of a FreeCAD 2-D point or vector."""
+    return (float(p.x), float(p.y))
+
+
+def linspace(a, b, n):
+    """n equally spaced values from a to b, as numpy.linspace computes them (i * step + a,
+    the last one b)."""
+    step = (b - a) / (n - 1)
+    return [float(i) * step + a for i in range(n - 1)] + [b]
+
+
+def nurbs_record(surface):
+    """Degrees, flat knots, poles (nested lists of (x, y, z)), weights and the domain of a
+    Part.BSplineSurface or Part.BezierSurface, as nurbs.NurbsSurfaceData takes them (a
+    periodic direction unperiodised on a copy, which keeps the parameterisation); None for
+    other types."""
+    name = type(surface).__name__
+
+    def poles_weights(s):
+        poles = [[(pt.x, pt.y, pt.z) for pt in row] for row in s.getPoles()]
+        weights = [list(r) for r in s.getWeights()] if s.isURational() or s.isVRational() else None
+        return poles, weights
+
+    if name == "BezierSurface":
+        p, q = surface.UDegree, surface.VDegree
+        poles, weights = poles_weights(surface)
+        return {"udegree": p, "vdegree": q, "uknots": [0.0] * (p + 1) + [1.0] * (p + 1),
+                "vknots": [0.0] * (q + 1) + [1.0] * (q + 1), "poles": poles, "weights": weights}
+    if name != "BSplineSurface":
+        return None
+    u0, u1, v0, v1 = surface.bounds()
+    uper, vper = surface.isUPeriodic(), surface.isVPeriodic()
+    rec = {"uknots_distinct": list(surface.getUKnots()), "umults": list(surface.getUMultiplicities()),
+           "vknots_distinct": list(surface.getVKnots()), "vmults": list(surface.getVMultiplicities())}
+    work = surface
+    if uper or vper:
+        work = surface.copy()  # never modify the caller's geometry
+        if uper:
+            work.setUNotPeriodic()
+        if vper:
+            work.setVNotPeriodic()
+    poles, weights = poles_weights(work)
+    flat = [[float(k) for k, m in zip(knots, mults) for _ in range(m)]
+            for knots, mults in ((work.getUKnots(), work.getUMultiplicities()),
+                                 (work.getVKnots(), work.getVMultiplicities()))]
+    # the domain of the un-periodised copy is its FirstKnotIndex..LastKnotIndex knots
+    rec.update(udegree=work.UDegree, vdegree=work.VDegree, uknots=flat[0], vknots=flat[1],
+               poles=poles, weights=weights, urange=(float(u0), float(u1)), vrange=(float(v0), float(v1)),
+               uperiod=float(u1 - u0) if uper else None, vperiod=float(v1 - v0) if vper else None)
+    return rec
+
+
+def pcurve_record(geom, s0, s1):
+    """Plain description of a Geom2d curve on [s0, s1] (kind "line", "conic" or "nurbs",
+    see trimmed_domain.curve_from_record) with OpenCascade's points at PCURVE_CHECK_SAMPLES
+    parameters to check the conversion against; None for other curve types."""
+    kind = type(geom).__name__
+    s0, s1 = float(s0), float(s1)
+    if kind in ("Line2d", "Line2dSegment"):
+        rec = {"kind": "line", "p0": xy(geom.value(s0)), "p1": xy(geom.value(s1))}
+    elif kind in ("Circle2d", "ArcOfCircle2d", "Ellipse2d", "ArcOfEllipse2d"):
+        radii = ((geom.Radius, geom.Radius) if "Circle" in kind else (geom.MajorRadius, geom.MinorRadius))
+        rec = {"kind": "conic", "center": xy(geom.Location), "xaxis": xy(geom.XAxis),
+               "yaxis": xy(geom.YAxis), "rx": float(radii[0]), "ry": float(radii[1])}
+    elif kind in ("BSplineCurve2d", "BezierCurve2d"):
+        g = geom.copy()
+        if kind == "BSplineCurve2d" and g.isPeriodic():
+            g.setNotPeriodic()
+        knots = (list(g.KnotSequence) if kind == "BSplineCurve2d"
+                 else [0.0] * (g.Degree + 1) + [1.0] * (g.Degree + 1))
+        rec = {"kind": "nurbs", "degree": g.Degree, "knots": knots, "poles": [xy(p) for p in g.getPoles()],
+               "weights": list(g.getWeights())}
+    else:
+        return None
+    s = linspace(s0, s1, PCURVE_CHECK_SAMPLES)
+    rec.update(s0=s0, s1=s1, check_s=s, check_uv=[xy(geom.value(x)) for x in s])
+    return rec
+
+
+def face_pcurves(face):
+    """(edge, face.curveOnSurface(edge)) of every edge of every wire of face, in the order
+    of the trimmed domain's curves: wire children, so that a seam contributes both of its
+    occurrences."""
+    out = []
+    for wire in face.Wires:
+        for edge in wire.childShapes():
+            if edge.ShapeType == "Edge":
+                out.append((edge, face.curveOnSurface(edge)))
+    return out
+
+
+def patch_count(face):
+    """Knot-span patches of a face's surface (1 for other surface types): the order in which
+    faces are handed to worker processes, largest first."""
+    surf = face.Surface
+    try:
+        return max(1, (len(surf.getUKnots()) - 1) * (len(surf.getVKnots()) - 1))
+    except Exception:  # not a B-spline surface
+        return 1
+
+
+def cross_check_params(parameter_range, n=CROSS_CHECK_POINTS):
+    """(u, v) lists of the cross-check points: a diagonal of the face's parameter range."""
+    u0, u1, v0, v1 = (float(x) for x in parameter_range)
+    t = [(i + 0.5) / n for i in range(n)]
+    return [u0 + (u1 - u0) * x for x in t], [v0 + (v1 - v0) * x for x in reversed(t)]
+
+
+def occ_reference(face, n=CROSS_CHECK_POINTS):
+    """OpenCascade's S_u, S_v, Gaussian and mean curvature (the latter for the face's surface
+    as it is, before the face's orientation) at the cross-check points: a list of
+    (su, sv, K, H) tuples, None where OpenCascade gives none (a degenerate point)."""
+    surf = face.Surface
+    out = []
+    for a, b in zip(*cross_check_params(face.ParameterRange, n)):
+        try:
+            du, dv = surf.getDN(a, b, 1, 0), surf.getDN(a, b, 0, 1)
+            out.append(((du.x, du.y, du.z), (dv.x, dv.y, dv.z),
+                        float(surf.curvature(a, b, "Gauss")), float(surf.curvature(a, b, "Mean"))))
+        except Exception:  # undefined curvature at a degenerate point: nothing to compare
+            out.append(None)
+    return out
+
+
+def face_record(face):
+    """(record, None) of a face whose surface is a B-spline or Bezier surface and whose
+    p-curves this module describes, else (None, the reason). The record: surface_type,
+    nurbs (nurbs_record), orientation_sign, parameter_range, pcurves (pcurve_record each),
+    patch_count, area (OpenCascade's)."""
+    surface = unwrap_surface(face.Surface)
+    name = type(surface).__name__
+    nurbs = nurbs_record(surface)
+    if nurbs is None:
+        return None, "a %s surface" % name
+    pcurves = []
+    for _, pc in face_pcurves(face):
+        rec = None if pc is None else pcurve_record(*pc)
+        if rec is None:
+            return None, ("an edge without a p-curve" if pc is None else
+                          "a p-curve of type %s" % type(pc[0]).__name__)
+        pcurves.append(rec)
+    return {"surface_type": type(face.Surface).__name__, "kind": "bspline" if name == "BSplineSurface" else "bezier",
+            "nurbs": nurbs, "orientation_sign": orientation_sign_of(face),
+            "parameter_range": tuple(float(x) for x in face.ParameterRange), "pcurves": pcurves,
+            "patch_count": patch_count(face), "area": float(face.Area)}, None
+
+
+# -- the child -------------------------------------------------------------------------------
+
+
+def _frames(inp, with_fields, display_deflection, read_seconds):
+    """The three frames of the records of a loaded BRepInput (see the module doc)."""
+    from ..freecad_env import versions
+    from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
+    faces = []
+    for number, face in inp.faces:
+        rec, why = face_record(face)
+        if rec is None:
+            yield {"unsupported": "Face%d has %s" % (number, why)}
+            return
+        rec["number"] = number
+        faces.append(rec)
+    size = float(inp.shape.BoundBox.DiagonalLength)
+    yield {"info": inp.info, "units": inp.units, "faces": faces, "size": size, "versions": versions(),
+           "read_seconds": read_seconds}
+    t = time.perf_counter()
+    pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
+    yield {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t}
+    from .provenance import shape_provenance
+    late = {}
+    if with_fields:  # before the provenance, as when read here: a triangulation tightens the bounding box
+        deflection = display_deflection or DISPLAY_DEFLECTION * size
+        late["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
+        late["display_deflection"] = deflection
+    late["provenance"] = shape_provenance(inp.shape, inp.faces, [r["area"] for r in faces])
+    late["occ_reference"] = [occ_reference(f) for _, f in inp.faces]
+    yield late
+
+
+
+
+def display_mesh(face, deflection):
+    """OpenCascade's display tessellation of face: its nodes (flat x, y, z doubles), its
+    triangles (flat indices) and the (u, v) nodes of its triangulation (flat u, v)."""
+    pts, tris = face.tessellate(deflection)
+    p, t, uv = array("d"), array("q"), array("d")
+    for q in pts:
+        p.extend((q.x, q.y, q.z))
+    for tri in tris:
+        t.extend(tri)
+    for q in face.getUVNodes():
+        uv.extend((float(q[0]), float(q[1])))
+    return p, t, uv
+
+
+class ReadInChild:
+    """The records of a BRep file, read by a child forked now (see the module doc).
+
+    frame(k) returns frame k (0: faces, 1: L_ref tessellation, 2: the rest) as the child
+    sent it; None when the child died or sent something unreadable (the caller then reads
+    the file itself). An InputError of the child (an unreadable file, a bad face number) is
+    raised here with its message.
+    """
+
+    def __init__(self, path, faces=None, with_fields=True, display_deflection=None):
+        self.path, self.faces = path, faces
+        self._frames, self._fh, self._pid = [], None, None
+        r, w = os.pipe()
+        pid = os.fork()
+        if pid == 0:
+            os.close(r)
+            try:
+                with os.fdopen(w, "wb") as fh:
+                    try:
+                        from ..freecad_env import import_freecad
+                        from .loading import load_brep
+                        import_freecad()
+                        t = time.perf_counter()
+                        inp = load_brep(path, faces)
+                        seconds = time.perf_counter() - t
+                        for frame in _frames(inp, with_fields, display_deflection, seconds):
+                            _send(fh, frame)
+                    except InputError as exc:
+                        _send(fh, {"error": str(exc)})
+            finally:
+                os._exit(0)
+        os.close(w)
+        self._fh, self._pid = os.fdopen(r, "rb"), pid
+
+    def frame(self, k):
+        while len(self._frames) <= k and self._fh is not None:
+            frame = _receive(self._fh)
+            if frame is None:
+                self.close()
+                break
+            self._frames.append(frame)
+            if "error" in frame:
+                self.close()
+                raise InputError(frame["error"])
+            if "unsupported" in frame:
+                self.close()
+        return self._frames[k] if k < len(self._frames) else None
+
+    @property
+    def unsupported(self):
+        """The reason the records path does not apply (None while it does)."""
+        first = self.frame(0)
+        if first is None:
+            return "the reading process ended without sending the records"
+        return first.get("unsupported")
+
+    def close(self):
+        """Stop (if still running) and reap the child."""
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+        if self._pid is not None:
+            try:
+                os.kill(self._pid, 9)
+            except OSError:
+                pass
+            try:
+                os.waitpid(self._pid, 0)
+            except ChildProcessError:
+                pass
+            self._pid = None
+
+
+def _send(fh, obj):
+    data = pickle.dumps(obj, pickle.HIGHEST_PROTOCOL)
+    fh.write(struct.pack("<q", len(data)) + data)
+    fh.flush()
+
+
+def _receive(fh):
+    head = fh.read(8)
+    if len(head) < 8:
+        return None
+    n = struct.unpack("<q", head)[0]
+    data = fh.read(n)
+    if len(data) < n:
+        return None
+    try:
+        return pickle.loads(data)
+    except Exception:  # a frame cut short by a dying child
+        return None

@@ -1,0 +1,107 @@
+"""A BRep file assessed from the plain records its reading process sent (plain_records).
+
+RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput: faces,
+description, bounding-box size, OpenCascade's face areas, the automatic-L_ref nodes, and
+(late) the provenance, OpenCascade's cross-check values and the display tessellation. Its
+faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part faces would, built
+from the same numbers; a face whose trimmed domain needs OpenCascade itself (open trim
+loops to close at a vertex) is read again here (part_face).
+"""
+import numpy as np
+
+from .face_field import FaceField
+from .lref_samples import LrefTessellation
+from .surface_eval import SurfaceEvaluator
+from .trimmed_domain import TrimmedDomain
+
+
+class FaceRecord:
+    """One face of a RecordedShape: number, surface_type, area (OpenCascade's), patch_count,
+    and field(), domain() (None when it needs the Part face: part_face())."""
+
+    def __init__(self, rec, path):
+        self.rec, self.path = rec, path
+        self.number = rec["number"]
+        self.surface_type = rec["surface_type"]
+        self.area = rec["area"]
+        self.patch_count = rec["patch_count"]
+
+    def field(self):
+        return FaceField(None, SurfaceEvaluator.from_record(self.rec), self.surface_type)
+
+    def domain(self):
+        return TrimmedDomain.from_record(self.rec)
+
+    def part_face(self):
+        """The Part.Face, read from the file in this process (FreeCAD is loaded here)."""
+        from .loading import load_brep
+        return load_brep(self.path, [self.number]).faces[0][1]
+
+
+class RecordedShape:
+    """The records of a BRep file (plain_records.ReadInChild, whose first frame has arrived
+    and is supported): info, units, faces [(number, FaceRecord)], size (bounding-box
+    diagonal), read_seconds; lref_samples() and late() read the later frames."""
+
+    def __init__(self, reader):
+        first = reader.frame(0)
+        self.reader = reader
+        self.path, self.selection = reader.path, reader.faces
+        self.info, self.units = first["info"], first["units"]
+        self.size, self.read_seconds = first["size"], first["read_seconds"]
+        self.versions = first["versions"]
+        self.faces = [(r["number"], FaceRecord(r, reader.path)) for r in first["faces"]]
+        self._late = None
+
+    def lref_samples(self):
+        """dict(points, node_area) of the automatic-L_ref tessellation (display.tessellation_samples)."""
+        from .display import node_areas
+        frame = self.reader.frame(1)
+        if frame is None:  # the reading process died: tessellate here
+            pts, tris, _ = LrefTessellation([f for _, f in self._part_input().faces], self._lref_deflection(),
+                                            fork=False).result()
+        else:
+            pts, tris = frame["lref_points"], frame["lref_triangles"]
+        if len(tris) == 0:
+            return None
+        P = np.frombuffer(pts, dtype=np.float64).reshape(-1, 3)
+        T = np.frombuffer(tris, dtype=np.int64).reshape(-1, 3)
+        return {"points": P, "node_area": node_areas(P, T)}
+
+    def _lref_deflection(self):
+        from .lref_samples import SAMPLE_DEFLECTION
+        return SAMPLE_DEFLECTION * self.size
+
+    def late(self, with_fields, display_deflection):
+        """dict(provenance, occ_reference (per face), and with fields display (per face:
+        plain_records.display_mesh) and display_deflection), from the reading process, or
+        made here when it ended before sending them."""
+        if self._late is None:
+            frame = self.reader.frame(2)
+            self.reader.close()
+            if frame is None or (with_fields and "display" not in frame):
+                frame = self._late_here(with_fields, display_deflection)
+            self._late = frame
+        return self._late
+
+    def _late_here(self, with_fields, display_deflection):
+        from .plain_records import DISPLAY_DEFLECTION, display_mesh, occ_reference
+        from .provenance import shape_provenance
+        inp = self._part_input()
+        out = {}
+        from .lref_samples import tessellate_faces
+        tessellate_faces([f for _, f in inp.faces], self._lref_deflection())  # as in the child
+        if with_fields:  # before the provenance (a triangulation tightens the bounding box)
+            deflection = display_deflection or DISPLAY_DEFLECTION * self.size
+            out["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
+            out["display_deflection"] = deflection
+        out["provenance"] = shape_provenance(inp.shape, inp.faces, [f.area for _, f in self.faces])
+        out["occ_reference"] = [occ_reference(f) for _, f in inp.faces]
+        return out
+
+    def _part_input(self):
+        from .loading import load_brep
+        return load_brep(self.path, self.selection)
+
+    def close(self):
+        self.reader.close()

@@ -1,0 +1,217 @@
+"""A BRep file assessed from the plain records of a reading child process
+(brep.plain_records, brep.recorded_shape): the same numbers, to the bit, as reading it in
+this process; fallbacks for faces the records do not describe and for a child that dies;
+errors with the same messages; a reading side that never loads numpy."""
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+
+from conftest import needs_freecad, shared_hull
+from hullprod_wb.brep import face_pool
+from hullprod_wb.core.errors import InputError
+
+pytestmark = [needs_freecad,
+              pytest.mark.skipif(not face_pool.fork_is_safe(), reason="forking is not available here")]
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+_PARENT = os.getpid()
+
+
+def _part():
+    from hullprod_wb.freecad_env import import_freecad
+    import_freecad()
+    import Part
+    from FreeCAD import Vector
+    return Part, Vector
+
+
+def wavy_bspline_face(nu=6, nv=5):
+    Part, V = _part()
+    ku = [i / nu for i in range(nu + 1)]
+    kv = [j / nv for j in range(nv + 1)]
+    poles = [[V(4.0 * i / (nu + 2), 3.0 * j / (nv + 2), 0.2 * math.sin(0.9 * i) * math.cos(0.7 * j))
+              for j in range(nv + 3)] for i in range(nu + 3)]
+    s = Part.BSplineSurface()
+    s.buildFromPolesMultsKnots(poles, [4] + [1] * (nu - 1) + [4], [4] + [1] * (nv - 1) + [4], ku, kv,
+                               False, False, 3, 3)
+    return s.toShape()
+
+
+def trimmed_bspline_face():
+    """A curved B-spline face with a circular hole (B-spline p-curves)."""
+    Part, V = _part()
+    poles = [[V(3 * i, 2 * j, 0.3 * math.sin(i + 2 * j)) for j in range(4)] for i in range(4)]
+    s = Part.BSplineSurface()
+    s.buildFromPolesMultsKnots(poles, [4, 4], [4, 4], [0, 1], [0, 1], False, False, 3, 3)
+    return s.toShape().cut(Part.makeCylinder(1.5, 10, V(4.2, 3.1, -5))).Faces[0]
+
+
+def both_ways(path, **kw):
+    """(assessed from the records of a reading child, assessed from the file read here)."""
+    from hullprod_wb.brep.backend import assess_brep
+    from hullprod_wb.brep.plain_records import ReadInChild
+    with_fields = kw.get("with_fields", True)
+    recorded = assess_brep(ReadInChild(path, kw.get("faces"), with_fields), **kw)
+    here = assess_brep(path, **kw)
+    return recorded, here
+
+
+def same_records(a, b):
+    """The two assessments agree in every number they report (timings and seconds aside)."""
+    assert a.vector == b.vector
+    assert a.reference_length.to_dict() == b.reference_length.to_dict()
+    assert {m: (v.status, v.value) for m, v in a.validity.items()} == \
+        {m: (v.status, v.value) for m, v in b.validity.items()}
+    strip = lambda rows: [{k: v for k, v in r.items() if k != "seconds"} for r in rows]
+    pa = {k: v for k, v in a.provenance.items() if k not in ("reading", "cross_checks", "quadrature")}
+    pb = {k: v for k, v in b.provenance.items() if k not in ("reading", "cross_checks", "quadrature")}
+    assert pa == pb
+    assert strip(a.provenance["cross_checks"]) == strip(b.provenance["cross_checks"])
+    for qa, qb in zip(a.provenance["quadrature"], b.provenance["quadrature"]):
+        assert qa["values"] == qb["values"] and qa["errors"] == qb["errors"]
+    assert {k: v for k, v in a.options.items()} == {k: v for k, v in b.options.items()}
+    assert a.input == b.input
+
+
+def test_records_give_the_values_of_the_file_read_here(tmp_path):
+    Part, V = _part()
+    shapes = {"wavy.step": wavy_bspline_face(), "trimmed.brep": trimmed_bspline_face(),
+              "two.step": Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()])}
+    for name, shape in shapes.items():
+        path = str(tmp_path / name)
+        (shape.exportBrep if name.endswith(".brep") else shape.exportStep)(path)
+        recorded, here = both_ways(path, lref=4.0, jobs=1)
+        assert recorded.provenance["reading"].startswith("OpenCascade in a separate process")
+        assert here.provenance["reading"] == "OpenCascade in this process"
+        same_records(recorded, here)
+        # the display fields are the same samples
+        fa, fb = recorded.fields, here.fields
+        for k in ("points", "triangles", "K", "H", "valid"):
+            assert (getattr(fa, k) == getattr(fb, k)).all(), (name, k)
+    # several faces in worker processes, and a face selection
+    path = str(tmp_path / "two.step")
+    recorded, here = both_ways(path, lref=4.0, jobs=2, with_fields=False)
+    same_records(recorded, here)
+    recorded, here = both_ways(path, lref=4.0, faces=[2], with_fields=False)
+    assert recorded.input["faces_used"] == [2]
+    same_records(recorded, here)
+
+
+def test_shared_hulls_from_records_are_the_same():
+    for name, kw in (("brep/wigley_half_wavebem.iges", {}), ("brep/dtmb5415_half_overture.igs",
+                                                            {"lref": 5720.0, "faces": [1, 2]})):
+        recorded, here = both_ways(shared_hull(name), with_fields=False, **kw)
+        assert recorded.provenance["reading"].startswith("OpenCascade in a separate process")
+        same_records(recorded, here)
+
+
+def test_a_face_the_records_do_not_describe_is_read_here(tmp_path):
+    from hullprod_wb.brep.backend import assess_brep
+    from hullprod_wb.brep.plain_records import ReadInChild
+    Part, V = _part()
+    path = str(tmp_path / "box.step")
+    Part.makeBox(1, 2, 3).exportStep(path)  # planar faces
+    reader = ReadInChild(path, None, False)
+    assert "Plane surface" in reader.unsupported
+    r = assess_brep(reader, with_fields=False, lref=3.0)
+    assert r.provenance["reading"] == "OpenCascade in this process"
+    assert r.signature["I_D"] == 0.0
+
+
+def test_errors_of_the_reading_process_are_raised_here(tmp_path):
+    from hullprod_wb.brep.backend import assess_brep
+    from hullprod_wb.brep.plain_records import ReadInChild
+    bad = tmp_path / "bad.igs"
+    bad.write_text("not an IGES file\n" * 5)
+    with pytest.raises(InputError) as here:
+        assess_brep(str(bad), with_fields=False)
+    with pytest.raises(InputError) as child:
+        assess_brep(ReadInChild(str(bad), None, False), with_fields=False)
+    assert str(child.value) == str(here.value)
+    path = str(tmp_path / "wavy.step")
+    wavy_bspline_face().exportStep(path)
+    with pytest.raises(InputError, match="out of range"):
+        assess_brep(ReadInChild(path, [3], False), with_fields=False)
+
+
+def _dies_in_child(*args, **kw):
+    if os.getpid() != _PARENT:
+        os._exit(3)
+    raise AssertionError("called in the parent")
+
+
+def test_a_reading_process_that_dies_is_replaced_by_reading_here(tmp_path, monkeypatch):
+    from hullprod_wb.brep import lref_samples, plain_records
+    from hullprod_wb.brep.backend import assess_brep
+    path = str(tmp_path / "wavy.step")
+    wavy_bspline_face().exportStep(path)
+    here = assess_brep(path, with_fields=False, lref=4.0)
+    # dies before its first frame: the whole file is read here
+    with monkeypatch.context() as m:
+        m.setattr(plain_records, "face_record", _dies_in_child)
+        r = assess_brep(plain_records.ReadInChild(path, None, False), with_fields=False, lref=4.0)
+    assert r.provenance["reading"] == "OpenCascade in this process"
+    assert r.vector == here.vector
+    # dies after its face records, while tessellating: the records are used, the rest is made here
+    original = lref_samples.tessellate_faces
+
+    def tessellate(*args):
+        if os.getpid() != _PARENT:
+            os._exit(3)
+        return original(*args)
+    with monkeypatch.context() as m:
+        m.setattr(lref_samples, "tessellate_faces", tessellate)
+        r = assess_brep(plain_records.ReadInChild(path, None, False), with_fields=False, lref=4.0)
+    assert r.provenance["reading"].startswith("OpenCascade in a separate process")
+    same_records(r, here)
+
+
+def test_the_reading_side_does_not_load_numpy(tmp_path):
+    path = str(tmp_path / "wavy.step")
+    wavy_bspline_face().exportStep(path)
+    script = (
+        "import sys\n"
+        "sys.path.insert(0, %r)\n"
+        "from hullprod_wb.freecad_env import import_freecad\n"
+        "import_freecad()\n"
+        "from hullprod_wb.brep import plain_records\n"
+        "from hullprod_wb.brep.loading import load_brep\n"
+        "frames = list(plain_records._frames(load_brep(%r), True, None, 0.0))\n"
+        "assert len(frames) == 3 and 'faces' in frames[0], frames[0]\n"
+        "assert 'numpy' not in sys.modules, sorted(m for m in sys.modules if 'numpy' in m)[:5]\n"
+        "print('ok', len(frames[0]['faces']))\n" % (ROOT, path))
+    p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert p.stdout.split() == ["ok", "1"]
+
+
+def test_the_command_reads_brep_files_in_a_separate_process(tmp_path):
+    path = str(tmp_path / "wavy.step")
+    wavy_bspline_face().exportStep(path)
+    import json
+    p = subprocess.run([os.path.join(ROOT, "hullprod"), "analyze", path, "--lref", "4", "--json", "--quiet"],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    doc = json.loads(p.stdout)
+    assert doc["provenance"]["reading"].startswith("OpenCascade in a separate process")
+    assert doc["software"]["FreeCAD"] and doc["software"]["OCC"]
+    from hullprod_wb import assess
+    here = assess(_part()[0].read(path), lref=4.0, with_fields=False)
+    # another process, with its own BLAS threads (sums in another order): not to the bit
+    assert doc["signature"]["I_D"] == pytest.approx(here.signature["I_D"], rel=1e-12)
+
+
+def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatch):
+    from hullprod_wb.brep.backend import assess_brep
+    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+    path = str(tmp_path / "trimmed.step")
+    trimmed_bspline_face().exportStep(path)
+    here = assess_brep(path, with_fields=False, lref=4.0)
+    # as for open trim loops to close at a vertex: the face itself, read in this process
+    monkeypatch.setattr(TrimmedDomain, "from_record", classmethod(lambda cls, rec: None))
+    r = assess_brep(ReadInChild(path, None, False), with_fields=False, lref=4.0)
+    same_records(r, here)
