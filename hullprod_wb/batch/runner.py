@@ -131,11 +131,16 @@ def _run_pools(cases, settings, settings_hash, workers, start_method):
         inflight = {}
         try:
             while pending or inflight:
+                broken = False
                 while pending and len(inflight) < 2 * workers:
                     case = pending.popleft()
-                    inflight[pool.submit(run_case, case, settings, settings_hash)] = case
-                done, _ = wait(inflight, return_when=FIRST_COMPLETED)
-                broken = False
+                    try:
+                        inflight[pool.submit(run_case, case, settings, settings_hash)] = case
+                    except BrokenProcessPool:  # a worker died since the last results: not run
+                        pending.appendleft(case)
+                        broken = True
+                        break
+                done = set() if broken else wait(inflight, return_when=FIRST_COMPLETED)[0]
                 for fut in done:
                     try:
                         record = fut.result()
