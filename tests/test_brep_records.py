@@ -101,11 +101,15 @@ def test_records_give_the_values_of_the_file_read_here(tmp_path):
 
 
 def test_shared_hulls_from_records_are_the_same():
-    for name, kw in (("brep/wigley_half_wavebem.iges", {}), ("brep/dtmb5415_half_overture.igs",
-                                                            {"lref": 5720.0, "faces": [1, 2]})):
+    for name, kw in (("brep/wigley_half_wavebem.iges", {}),
+                     ("brep/dtmb5415_half_overture.igs", {"lref": 5720.0, "faces": [1, 2]}),
+                     # a trim-loop gap closed at a vertex, from the records' edge vertices
+                     ("brep/kvlcc2_half_overture.igs", {"faces": [10]})):
         recorded, here = both_ways(shared_hull(name), with_fields=False, **kw)
         assert recorded.provenance["reading"].startswith("OpenCascade in a separate process")
         same_records(recorded, here)
+        if "kvlcc2" in name:
+            assert recorded.provenance["faces"][0]["repairs"][0].startswith("gap closed at vertex")
 
 
 def test_a_face_the_records_do_not_describe_is_read_here(tmp_path):
@@ -211,7 +215,7 @@ def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatc
     path = str(tmp_path / "trimmed.step")
     trimmed_bspline_face().exportStep(path)
     here = assess_brep(path, with_fields=False, lref=4.0)
-    # as for open trim loops to close at a vertex: the face itself, read in this process
-    monkeypatch.setattr(TrimmedDomain, "from_record", classmethod(lambda cls, rec: None))
+    # as for a p-curve whose conversion fails its check: the face itself, read in this process
+    monkeypatch.setattr(TrimmedDomain, "from_record", classmethod(lambda cls, rec, evaluator: None))
     r = assess_brep(ReadInChild(path, None, False), with_fields=False, lref=4.0)
     same_records(r, here)

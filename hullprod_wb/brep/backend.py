@@ -29,7 +29,7 @@ from .face_field import FaceField
 from .face_pool import map_faces, map_forked, resolve_jobs
 from .loading import BRepInput, load_brep
 from .lref_samples import read_and_start
-from .provenance import shape_provenance
+from .provenance import shape_boxes, shape_provenance
 from .patches import Patches
 from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
 from .recorded_shape import FaceRecord, RecordedShape
@@ -188,8 +188,7 @@ def face_cross_checks(f, rule=None, seconds=0.0, reference=None):
     already known), and the independent fixed-rule area (rule: its area_rule when already
     computed, in seconds)."""
     t = time.perf_counter()
-    rec = {"face": f.number, "occ_pointwise_max_relative":
-           None if reference is PENDING else cross_check_occ(f.ff, reference)}
+    rec = {"face": f.number, "occ_pointwise_max_relative": cross_check_occ(f.ff, reference)}
     if rule is None:
         rule = area_rule(f.ff, f.domain, f.u_breaks, f.v_breaks)
     rec["area"] = area_cross_check(rule, f.result.values["A"])
@@ -232,9 +231,9 @@ class FaceSetup:
 
     def __init__(self, face, area_check=False):
         self.recorded = isinstance(face, FaceRecord)
-        domain = face.domain() if self.recorded else None
+        ff = face.field() if self.recorded else None
+        domain = face.domain(ff.evaluator) if self.recorded else None
         if domain is not None:
-            ff = face.field()
             domain.fallback = None
         else:
             if self.recorded:  # a domain that needs OpenCascade itself: the face, read here
@@ -279,9 +278,8 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     in group_jobs processes (face_pool.map_forked; the values do not depend on it), and
     this process computes the area cross-check while it waits for the others (unless the
     setup has it). cross_checks: attach face_cross_checks. face: a Part.Face, or a
-    recorded_shape.FaceRecord (the same field and domain from its records; OpenCascade's
-    cross-check values are compared later, recorded_cross_checks). setup: its FaceSetup
-    when already made."""
+    recorded_shape.FaceRecord (the same field and domain from its records, and OpenCascade's
+    cross-check values). setup: its FaceSetup when already made."""
     s = setup or FaceSetup(face)
     ff, domain, deg, quads = s.ff, s.domain, s.deg, s.quads
     u_breaks, v_breaks, gu, gv, main_field = s.u_breaks, s.v_breaks, s.gu, s.gv, s.main_field
@@ -316,24 +314,8 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
     if cross_checks:
         f.cross_check = face_cross_checks(f, s.check.get("rule"), s.check.get("seconds", 0.0),
-                                          reference=PENDING if s.recorded else None)
+                                          reference=face.occ_reference if s.recorded else None)
     return f
-
-
-#: face_cross_checks(reference=PENDING): OpenCascade's values come later (recorded_cross_checks).
-PENDING = "pending"
-
-
-def recorded_cross_checks(results, shape, late):
-    """Complete the OpenCascade cross-checks of faces assessed from records (reference
-    PENDING) with the reading process's values, late["occ_reference"] (per face of shape)."""
-    for i, f in enumerate(results):
-        rec = f.cross_check
-        if rec is not None and rec["occ_pointwise_max_relative"] is None:
-            t = time.perf_counter()
-            ff = shape.faces[i][1].field()
-            rec["occ_pointwise_max_relative"] = cross_check_occ(ff, late["occ_reference"][i])
-            rec["seconds"] += time.perf_counter() - t
 
 
 def _global_converged(faces, quantity, rtol):
@@ -567,7 +549,8 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         occ_areas = [f.area for _, f in inp.faces]
         lref_samples = inp.lref_samples()
     else:
-        size = inp.shape.BoundBox.DiagonalLength
+        boxes = shape_boxes(inp.shape, inp.faces)  # before anything is tessellated here
+        size = boxes[0].DiagonalLength
         occ_areas = [f.Area for _, f in inp.faces]  # while a started L_ref tessellation runs
         # the automatic L_ref from the nodes of one fixed tessellation, whatever the display
         lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size,
@@ -617,7 +600,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     def shape_records():  # in this process while the workers integrate
         tp = time.perf_counter()
         if not recorded:
-            prov.update(shape_provenance(inp.shape, inp.faces, occ_areas))
+            prov.update(shape_provenance(inp.shape, inp.faces, occ_areas, boxes))
         timings["provenance"] = time.perf_counter() - tp
 
     cost = [f.patch_count if recorded else patch_count(f) for _, f in inp.faces]
@@ -627,8 +610,6 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         tp = time.perf_counter()
         late = inp.late(with_fields, display_deflection)
         prov.update(late["provenance"])
-        if cross_checks:
-            recorded_cross_checks(results, inp, late)
         if with_fields:
             samples = sample_faces([(n, f.field()) for n, f in inp.faces], deflection, late["display"])
             if samples is None:

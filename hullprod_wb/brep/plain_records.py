@@ -9,9 +9,10 @@ through a pipe, while the parent loads numpy and the numerical modules; the pare
 loads FreeCAD (recorded_shape builds the same fields and domains from the records as from
 the faces, and the results are the same to the bit).
 
-The child sends three frames: the face records and the file's description; the nodes of
-the automatic-L_ref tessellation; then what is only needed at the end (provenance,
-OpenCascade's values at the cross-check points, the display tessellation). A shape with a
+The child sends three frames: the face records (with OpenCascade's values at the
+cross-check points) and the file's description; the nodes of the automatic-L_ref
+tessellation; then, at the lowest priority, what is only needed at the end (provenance, the
+display tessellation). A shape with a
 face this module does not describe (another surface type, a planar face, a p-curve of
 another type or none) is reported as unsupported, and the parent reads the file itself.
 
@@ -141,6 +142,26 @@ def face_pcurves(face):
     return out
 
 
+def edge_vertices(edges):
+    """Topological vertices at the ends of edges (as p-curves run: an edge's first vertex
+    at its p-curve's start, its last at its end): per edge the pair of indices into the
+    list of distinct vertices, and that list of (point (x, y, z), tolerance)."""
+    found, out = [], []
+    for edge in edges:
+        pair = []
+        for vertex in (edge.firstVertex(False), edge.lastVertex(False)):
+            for k, (other, _) in enumerate(found):
+                if other.isSame(vertex):
+                    break
+            else:
+                k = len(found)
+                p = vertex.Point
+                found.append((vertex, ((p.x, p.y, p.z), float(vertex.Tolerance))))
+            pair.append(k)
+        out.append(tuple(pair))
+    return out, [v for _, v in found]
+
+
 def patch_count(face):
     """Knot-span patches of a face's surface (1 for other surface types): the order in which
     faces are handed to worker processes, largest first."""
@@ -178,23 +199,27 @@ def face_record(face):
     """(record, None) of a face whose surface is a B-spline or Bezier surface and whose
     p-curves this module describes, else (None, the reason). The record: surface_type,
     nurbs (nurbs_record), orientation_sign, parameter_range, pcurves (pcurve_record each),
-    patch_count, area (OpenCascade's)."""
+    end_vertices and vertices (edge_vertices), patch_count, area (OpenCascade's),
+    occ_reference."""
     surface = unwrap_surface(face.Surface)
     name = type(surface).__name__
     nurbs = nurbs_record(surface)
     if nurbs is None:
         return None, "a %s surface" % name
-    pcurves = []
-    for _, pc in face_pcurves(face):
+    pcurves, edges = [], []
+    for edge, pc in face_pcurves(face):
         rec = None if pc is None else pcurve_record(*pc)
         if rec is None:
             return None, ("an edge without a p-curve" if pc is None else
                           "a p-curve of type %s" % type(pc[0]).__name__)
         pcurves.append(rec)
+        edges.append(edge)
+    end_vertices, vertices = edge_vertices(edges)
     return {"surface_type": type(face.Surface).__name__, "kind": "bspline" if name == "BSplineSurface" else "bezier",
             "nurbs": nurbs, "orientation_sign": orientation_sign_of(face),
             "parameter_range": tuple(float(x) for x in face.ParameterRange), "pcurves": pcurves,
-            "patch_count": patch_count(face), "area": float(face.Area)}, None
+            "patch_count": patch_count(face), "area": float(face.Area),
+            "occ_reference": occ_reference(face), "end_vertices": end_vertices, "vertices": vertices}, None
 
 
 # -- the child -------------------------------------------------------------------------------
@@ -203,29 +228,51 @@ def face_record(face):
 def _frames(inp, with_fields, display_deflection, read_seconds):
     """The three frames of the records of a loaded BRepInput (see the module doc)."""
     from ..freecad_env import versions
+    from .face_pool import map_forked
     from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
-    faces = []
-    for number, face in inp.faces:
-        rec, why = face_record(face)
-        if rec is None:
-            yield {"unsupported": "Face%d has %s" % (number, why)}
-            return
-        rec["number"] = number
-        faces.append(rec)
-    size = float(inp.shape.BoundBox.DiagonalLength)
+    from .provenance import shape_boxes
+    boxes = shape_boxes(inp.shape, inp.faces)  # before any tessellation, as when read here
+    size = float(boxes[0].DiagonalLength)
+
+    def records():
+        out = []
+        for number, face in inp.faces:
+            rec, why = face_record(face)
+            if rec is None:
+                return "Face%d has %s" % (number, why)
+            rec["number"] = number
+            out.append(rec)
+        return out
+
+    def tessellation():
+        t = time.perf_counter()
+        pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
+        return {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t}
+
+    if len(inp.faces) > 1:
+        # the records of several faces take as long as a part of the tessellation: made in a
+        # child of this process meanwhile (the tessellation stays here, on this shape)
+        tess, faces = map_forked(lambda i: tessellation() if i == 0 else records(), 2, 2)
+    else:  # the parent sets up the face while the tessellation runs
+        tess, faces = None, records()
+    if isinstance(faces, str):
+        yield {"unsupported": faces}
+        return
     yield {"info": inp.info, "units": inp.units, "faces": faces, "size": size, "versions": versions(),
            "read_seconds": read_seconds}
-    t = time.perf_counter()
-    pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
-    yield {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t}
+    yield tess or tessellation()
+    # the rest is needed only at the end: give the CPUs to the integration meanwhile
+    try:
+        os.nice(19)
+    except OSError:
+        pass
     from .provenance import shape_provenance
     late = {}
-    if with_fields:  # before the provenance, as when read here: a triangulation tightens the bounding box
+    if with_fields:
         deflection = display_deflection or DISPLAY_DEFLECTION * size
         late["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
         late["display_deflection"] = deflection
-    late["provenance"] = shape_provenance(inp.shape, inp.faces, [r["area"] for r in faces])
-    late["occ_reference"] = [occ_reference(f) for _, f in inp.faces]
+    late["provenance"] = shape_provenance(inp.shape, inp.faces, [r["area"] for r in faces], boxes)
     yield late
 
 

@@ -49,7 +49,14 @@ def _on_edges(point, edges, tol):
     return None
 
 
-def edge_report(shape, faces):
+def shape_boxes(shape, faces):
+    """Bounding boxes of shape and of each of faces (list of (number, Part.Face)), to be taken
+    before anything is tessellated: OpenCascade's boxes shrink to a triangulation once there
+    is one, and the provenance should not depend on it (shape_provenance)."""
+    return shape.BoundBox, [f.BoundBox for _, f in faces]
+
+
+def edge_report(shape, faces, boxes=None):
     """Free and shared boundary edges of the assessed faces, with continuity across them.
 
     A face's boundary edge is shared when sample points along it lie on boundary edges of
@@ -58,14 +65,15 @@ def edge_report(shape, faces):
     (half the sum over the two sides). Normals of the two faces differing by more than
     CREASE_ANGLE_DEG at any sample make a C0 crease (normals from the edges' p-curves).
     """
-    size = max(shape.BoundBox.DiagonalLength, 1e-300)
+    shape_bb, face_bbs = boxes or shape_boxes(shape, faces)
+    size = max(shape_bb.DiagonalLength, 1e-300)
     tol = 1e-5 * size
     n_free = n_shared = 0
     free_len = shared_len = crease_len = 0.0
     creases = {}
     boxes = []
-    for number, face in faces:
-        bb = face.BoundBox
+    for (number, face), bb in zip(faces, face_bbs):
+        bb = type(bb)(bb)  # a copy, enlarged
         bb.enlarge(tol)
         boxes.append((number, face, bb, [e for e in face.Edges if e.Length > tol]))
     for number, face, _, edges in boxes:
@@ -108,9 +116,10 @@ def edge_report(shape, faces):
             "creases": list(creases.values())}
 
 
-def hull_side(shape, rel_tol=1e-4):
-    """'starboard half' / 'port half' (one side of y = 0), 'full' (both) or 'off-centre'."""
-    bb = shape.BoundBox
+def hull_side(shape, rel_tol=1e-4, bb=None):
+    """'starboard half' / 'port half' (one side of y = 0), 'full' (both) or 'off-centre'
+    (bb: the shape's bounding box, when already taken)."""
+    bb = bb or shape.BoundBox
     tol = rel_tol * max(bb.XLength, bb.YLength, bb.ZLength)
     if bb.YMin >= -tol and bb.YMax > tol:
         return "starboard half (y >= 0)"
@@ -125,12 +134,14 @@ def surface_type_name(face):
     return type(face.Surface).__name__
 
 
-def shape_provenance(shape, faces, areas=None):
+def shape_provenance(shape, faces, areas=None, boxes=None):
     """Provenance dict of the assessed faces of shape (faces: list of (number, Part.Face);
-    areas: their OpenCascade areas when already known)."""
+    areas: their OpenCascade areas when already known; boxes: shape_boxes taken before any
+    tessellation, else taken now)."""
     types = Counter(surface_type_name(f) for _, f in faces)
     occ_area = float(sum(f.Area for _, f in faces) if areas is None else sum(areas))
-    bb = shape.BoundBox
+    boxes = boxes or shape_boxes(shape, faces)
+    bb = boxes[0]
     return {
         "faces_total": len(shape.Faces),
         "faces_assessed": len(faces),
@@ -141,6 +152,6 @@ def shape_provenance(shape, faces, areas=None):
         "solids": len(shape.Solids),
         "bounding_box": {"xmin": bb.XMin, "xmax": bb.XMax, "ymin": bb.YMin, "ymax": bb.YMax,
                          "zmin": bb.ZMin, "zmax": bb.ZMax},
-        "hull_side": hull_side(shape),
-        "edges": edge_report(shape, faces),
+        "hull_side": hull_side(shape, bb=bb),
+        "edges": edge_report(shape, faces, boxes),
     }

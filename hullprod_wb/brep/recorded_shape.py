@@ -1,11 +1,11 @@
 """A BRep file assessed from the plain records its reading process sent (plain_records).
 
-RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput: faces,
-description, bounding-box size, OpenCascade's face areas, the automatic-L_ref nodes, and
-(late) the provenance, OpenCascade's cross-check values and the display tessellation. Its
+RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput: faces
+(with OpenCascade's areas and cross-check values), description, bounding-box size, the
+automatic-L_ref nodes, and (late) the provenance and the display tessellation. Its
 faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part faces would, built
-from the same numbers; a face whose trimmed domain needs OpenCascade itself (open trim
-loops to close at a vertex) is read again here (part_face).
+from the same numbers; a face whose trimmed domain needs OpenCascade itself (a p-curve
+whose conversion fails its check) is read again here (part_face).
 """
 import numpy as np
 
@@ -17,7 +17,8 @@ from .trimmed_domain import TrimmedDomain
 
 class FaceRecord:
     """One face of a RecordedShape: number, surface_type, area (OpenCascade's), patch_count,
-    and field(), domain() (None when it needs the Part face: part_face())."""
+    occ_reference (OpenCascade's values at the cross-check points), and field(), domain()
+    (None when it needs the Part face: part_face())."""
 
     def __init__(self, rec, path):
         self.rec, self.path = rec, path
@@ -25,12 +26,13 @@ class FaceRecord:
         self.surface_type = rec["surface_type"]
         self.area = rec["area"]
         self.patch_count = rec["patch_count"]
+        self.occ_reference = rec["occ_reference"]
 
     def field(self):
         return FaceField(None, SurfaceEvaluator.from_record(self.rec), self.surface_type)
 
-    def domain(self):
-        return TrimmedDomain.from_record(self.rec)
+    def domain(self, evaluator=None):
+        return TrimmedDomain.from_record(self.rec, evaluator or SurfaceEvaluator.from_record(self.rec))
 
     def part_face(self):
         """The Part.Face, read from the file in this process (FreeCAD is loaded here)."""
@@ -73,9 +75,9 @@ class RecordedShape:
         return SAMPLE_DEFLECTION * self.size
 
     def late(self, with_fields, display_deflection):
-        """dict(provenance, occ_reference (per face), and with fields display (per face:
-        plain_records.display_mesh) and display_deflection), from the reading process, or
-        made here when it ended before sending them."""
+        """dict(provenance, and with fields display (per face: plain_records.display_mesh) and
+        display_deflection), from the reading process, or made here when it ended before
+        sending them."""
         if self._late is None:
             frame = self.reader.frame(2)
             self.reader.close()
@@ -85,18 +87,16 @@ class RecordedShape:
         return self._late
 
     def _late_here(self, with_fields, display_deflection):
-        from .plain_records import DISPLAY_DEFLECTION, display_mesh, occ_reference
-        from .provenance import shape_provenance
+        from .plain_records import DISPLAY_DEFLECTION, display_mesh
+        from .provenance import shape_boxes, shape_provenance
         inp = self._part_input()
+        boxes = shape_boxes(inp.shape, inp.faces)
         out = {}
-        from .lref_samples import tessellate_faces
-        tessellate_faces([f for _, f in inp.faces], self._lref_deflection())  # as in the child
-        if with_fields:  # before the provenance (a triangulation tightens the bounding box)
+        if with_fields:
             deflection = display_deflection or DISPLAY_DEFLECTION * self.size
             out["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
             out["display_deflection"] = deflection
-        out["provenance"] = shape_provenance(inp.shape, inp.faces, [f.area for _, f in self.faces])
-        out["occ_reference"] = [occ_reference(f) for _, f in inp.faces]
+        out["provenance"] = shape_provenance(inp.shape, inp.faces, [f.area for _, f in self.faces], boxes)
         return out
 
     def _part_input(self):

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from .nurbs import basis_derivatives, find_spans
-from .plain_records import face_pcurves, pcurve_record, xy
+from .plain_records import edge_vertices, face_pcurves, pcurve_record, xy
 
 #: Samples per polynomial span of a p-curve (bracketing of u-extrema and crossings).
 SAMPLES_PER_SPAN = 16
@@ -449,13 +449,15 @@ def plane_pcurve(edge, pcurve, frame):
         what, kind)
 
 
-def close_gaps(face, curves, edges, error):
+def close_gaps(evaluator, end_vertices, vertices, error):
     """Straight parameter segments closing the trim loops at their open ends, exactly.
 
-    error: the :class:`OpenTrimLoops` of ``curves`` (the p-curves of ``edges``, same order).
-    The open ends are grouped by the topological vertex of their edge (the edge's first
-    vertex for a p-curve's start, its last for its end) and paired, nearest first, within
-    a vertex. The segment from end p to end q is accepted when its image
+    evaluator: the face's SurfaceEvaluator; end_vertices: per p-curve the indices into
+    vertices of the topological vertices at its start and end (plain_records.edge_vertices);
+    vertices: (point (x, y, z), tolerance) of each; error: the :class:`OpenTrimLoops` of the
+    p-curves. The open ends are grouped by the topological vertex of their edge (the edge's
+    first vertex for a p-curve's start, its last for its end) and paired, nearest first,
+    within a vertex. The segment from end p to end q is accepted when its image
     g(t) = S(p + t (q - p)) stays in the vertex's tolerance ball: max |g(t_i) - V| over
     GAP_SAMPLES points plus the chord bound h^2/8 max |g''| (h the sample spacing) is at
     most the vertex tolerance. Exactness: a BRep vertex is the ball |x - V| <= tol_V, and
@@ -466,29 +468,20 @@ def close_gaps(face, curves, edges, error):
     Returns (segments, notes); raises InputError (the error's message and the reason)
     when some open end has no such closure.
     """
-    from .surface_eval import SurfaceEvaluator
-
     def fail(reason):
         raise InputError("%s; no exact closure: %s" % (error, reason)) from error
 
     ends = error.ends
-    groups = []  # [vertex, [end indices]]
+    groups = {}  # vertex index -> [end indices], in order of first appearance
     for i in (int(k) for k in error.open_ends):
-        edge = edges[i // 2]
-        vertex = edge.firstVertex(False) if i % 2 == 0 else edge.lastVertex(False)
-        for group in groups:
-            if group[0].isSame(vertex):
-                group[1].append(i)
-                break
-        else:
-            groups.append([vertex, [i]])
-    evaluator = SurfaceEvaluator.for_face(face)
+        groups.setdefault(end_vertices[i // 2][i % 2], []).append(i)
     segments, notes = [], []
     t = np.linspace(0.0, 1.0, GAP_SAMPLES)
     h = t[1] - t[0]
-    for vertex, idx in groups:
-        V = np.array(_xyz(vertex.Point))
-        tol = max(float(vertex.Tolerance), PRECISION_CONFUSION)
+    for vid, idx in groups.items():
+        point, vertex_tol = vertices[vid]
+        V = np.array(point, dtype=float)
+        tol = max(float(vertex_tol), PRECISION_CONFUSION)
         if len(idx) % 2:
             fail("%d open p-curve end(s) at the vertex (%.6g, %.6g, %.6g), none of another "
                  "edge there to join" % ((len(idx),) + tuple(V)))
@@ -647,24 +640,26 @@ class TrimmedDomain:
         try:
             domain = cls(curves, repairs)
         except OpenTrimLoops as exc:
-            segments, notes = close_gaps(face, curves, edges, exc)
+            from .surface_eval import SurfaceEvaluator
+            segments, notes = close_gaps(SurfaceEvaluator.for_face(face), *edge_vertices(edges), exc)
             domain = cls(curves + segments, repairs + notes)
         domain.face_parameter_range = tuple(face.ParameterRange)
         return domain
 
     @classmethod
-    def from_record(cls, rec):
-        """Domain of a face from plain_records.face_record's p-curves, the same as from_face
-        gives for that face; None when a p-curve's conversion fails its check or the loops
-        are open (from_face then needs the face itself: OpenCascade curves, vertex
-        tolerances)."""
+    def from_record(cls, rec, evaluator):
+        """Domain of a face from plain_records.face_record's p-curves and edge vertices, the
+        same as from_face gives for that face (evaluator: its SurfaceEvaluator, for closing
+        loop gaps); None when a p-curve's conversion fails its check (from_face then
+        evaluates it through OpenCascade)."""
         curves = [curve_from_record(r) for r in rec["pcurves"]]
         if any(c is None for c in curves):
             return None
         try:
             domain = cls(curves)
-        except OpenTrimLoops:
-            return None
+        except OpenTrimLoops as exc:
+            segments, notes = close_gaps(evaluator, rec["end_vertices"], rec["vertices"], exc)
+            domain = cls(curves + segments, notes)
         domain.face_parameter_range = tuple(rec["parameter_range"])
         return domain
 
