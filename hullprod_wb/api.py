@@ -51,9 +51,11 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         from .mesh.backend import assess_mesh
         return assess_mesh(source, lref=lref, h_f=h_f, k_f=k_f, with_fields=with_fields,
                            progress=progress)
-    if isinstance(source, (str, os.PathLike)):
-        from .brep.face_pool import fork_is_safe
-        if fork_is_safe() and "FreeCAD" not in sys.modules:
+    from .brep.face_pool import fork_is_safe, resolve_jobs
+    # with one process asked for (jobs=1, a batch worker's HULLPROD_JOBS=1) everything runs
+    # here: a process that loads FreeCAD once for many files reads them itself
+    if isinstance(source, (str, os.PathLike)) and fork_is_safe() and resolve_jobs(options.get("jobs"), 2) > 1:
+        if "FreeCAD" not in sys.modules:
             # a child reads the file and sends its plain records while this process loads
             # numpy and the backend (brep.plain_records); FreeCAD is never loaded here
             from .brep.plain_records import ReadInChild
