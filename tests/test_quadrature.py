@@ -605,6 +605,17 @@ def test_patch_rule_bounds_its_error():
     assert errors[1] < 1e-3 * errors[0] and errors[2] < 1e-10 * exact and errors[3] < 1e-12 * exact
     with pytest.raises(InputError):
         patch_rule(d, f, 2)
+    # the area alone (the backend's area cross-check): the same rule, J evaluated only
+    from hullprod_wb.brep.quadrature import patch_area
+    for order, u_breaks in ((5, ()), (8, cuts)):
+        vals, bound = patch_rule(d, f, order, u_breaks)
+        area, area_bound = patch_area(d, f, order, u_breaks)
+        assert area == pytest.approx(vals["A"], rel=1e-14)
+        assert area_bound == pytest.approx(bound["A"], rel=1e-6, abs=1e-15 * exact)
+    nan_at_centre = field_of(lambda u, v: np.where(u * u + v * v < 1e-4, np.nan, 1.0), lambda u, v: 1.0 + 0.0 * u)
+    assert patch_area(d, nan_at_centre, 8)[0] == pytest.approx(patch_rule(d, nan_at_centre, 8)[0]["A"], rel=1e-14)
+    with pytest.raises(InputError):
+        patch_area(d, f, 2)
 
 
 def test_segment_series_roots_and_exact_integrals():

@@ -33,7 +33,7 @@ from .provenance import shape_boxes, shape_provenance
 from .patches import Patches
 from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
 from .recorded_shape import FaceRecord, RecordedShape
-from .quadrature import GROUPS, QUANTITIES, integrate, patch_groups, patch_rule
+from .quadrature import GROUPS, QUANTITIES, integrate, patch_area, patch_groups
 from .trimmed_domain import TrimmedDomain
 
 #: Quadrature settings of the paper's campaign (section 5.2); all are options.
@@ -89,11 +89,10 @@ def cross_check_occ(ff, reference=None, n=CROSS_CHECK_POINTS):
 
 def area_rule(ff, domain, u_breaks, v_breaks):
     """Represented area by the fixed tensor Gauss-Legendre rule of order 8 on every
-    boundary-fitted patch (quadrature.patch_rule), an estimate independent of the adaptive
+    boundary-fitted patch (quadrature.patch_area), an estimate independent of the adaptive
     cubature, and the embedded-rule bound on its own error: (area, bound). Only J is
     evaluated (first derivatives: FaceField.area_element)."""
-    values, bounds = patch_rule(domain, ff.area_element, 8, u_breaks, v_breaks)
-    return values["A"], bounds["A"]
+    return patch_area(domain, ff.area_element, 8, u_breaks, v_breaks)
 
 
 def area_cross_check(rule, area):

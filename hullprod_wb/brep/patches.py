@@ -59,7 +59,7 @@ class Patches:
         keep = np.concatenate(([True], np.diff(cuts) > tol))
         cuts = cuts[keep]
         dom_bp = domain.breakpoints
-        rows = []
+        slabs = []  # (a, b, lo pieces, hi pieces, kind) of each slab between cuts
         for a, b in zip(cuts[:-1], cuts[1:]):
             k = min(max(np.searchsorted(dom_bp, 0.5 * (a + b)) - 1, 0), len(domain.slabs) - 1)
             _, _, lo_p, hi_p = domain.slabs[k]
@@ -69,9 +69,21 @@ class Patches:
             act = np.concatenate((lo_p, hi_p))
             ta = np.any(domain.piece_turns[act, 0] & (np.abs(domain.piece_u_lo[act] - a) <= tol))
             tb = np.any(domain.piece_turns[act, 1] & (np.abs(domain.piece_u_hi[act] - b) <= tol))
-            um = np.array([0.5 * (a + b)])
-            lo_m = np.array([domain.piece_v(p, um)[0] for p in lo_p])
-            hi_m = np.array([domain.piece_v(p, um)[0] for p in hi_p])
+            slabs.append((a, b, lo_p, hi_p, (1 if ta else 0) + (2 if tb else 0)))
+        # the bounding pieces at the slabs' mid-lines, one evaluation per piece for all its slabs
+        mids = {}
+        for i, (a, b, lo_p, hi_p, _) in enumerate(slabs):
+            for p in np.concatenate((lo_p, hi_p)):
+                mids.setdefault(int(p), []).append(i)
+        at_mid = {}
+        for p, idx in mids.items():
+            um = np.array([0.5 * (slabs[i][0] + slabs[i][1]) for i in idx])
+            for i, v in zip(idx, domain.piece_v(p, um)):
+                at_mid[p, i] = v
+        rows = []
+        for i, (a, b, lo_p, hi_p, kind) in enumerate(slabs):
+            lo_m = np.array([at_mid[int(p), i] for p in lo_p])
+            hi_m = np.array([at_mid[int(p), i] for p in hi_p])
             pieces = []
             for lp, hp, lv, hv in zip(lo_p, hi_p, lo_m, hi_m):
                 inner = vb[(vb > lv + tol) & (vb < hv - tol)]
@@ -79,7 +91,6 @@ class Patches:
                 bnd_v = np.concatenate(([np.nan], inner, [np.nan]))
                 for j in range(bnd_p.size - 1):
                     pieces.append((bnd_p[j], bnd_v[j], bnd_p[j + 1], bnd_v[j + 1]))
-            kind = (1 if ta else 0) + (2 if tb else 0)
             for (lp, lv, hp, hv) in pieces:
                 rows.append((a, b, kind, lp, lv, hp, hv))
         if not rows:
