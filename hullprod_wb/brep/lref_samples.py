@@ -38,8 +38,9 @@ def tessellate_faces(faces, deflection):
 
 
 class LrefTessellation:
-    """tessellate_faces(faces, deflection), with fork in a child forked now when forking is
-    safe (else when result() is first called); result() returns it and the seconds it took."""
+    """tessellate_faces(faces, deflection), made in a child forked now (with fork, where
+    forking is safe) or else at the first result(); result() returns it and the seconds it
+    took."""
 
     def __init__(self, faces, deflection, fork=True):
         self.faces, self.deflection = list(faces), float(deflection)

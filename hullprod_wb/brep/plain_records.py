@@ -10,14 +10,14 @@ loads FreeCAD (recorded_shape builds the same fields and domains from the record
 the faces, and the results are the same to the bit).
 
 The child sends three frames: the face records (with OpenCascade's values at the
-cross-check points) and the file's description; the nodes of the automatic-L_ref
-tessellation; then, at the lowest priority, what is only needed at the end (provenance, the
-display tessellation). A shape with a
-face this module does not describe (another surface type, a planar face, a p-curve of
-another type or none) is reported as unsupported, and the parent reads the file itself.
+cross-check points and the edges' vertices) and the file's description; the nodes of the
+automatic-L_ref tessellation; then, at the lowest priority, what is only needed at the end
+(provenance, the display tessellation). The records of several faces are made in a child of
+the child while it tessellates. A shape with a face this module does not describe (another
+surface type, a planar face, a p-curve of another type or none) is reported as unsupported,
+and the parent reads the file itself.
 
-Nothing in this module imports numpy at import time: the child stays light until it has
-sent the first two frames.
+Nothing here imports numpy: the reading side never loads it.
 """
 import os
 import pickle
