@@ -100,6 +100,24 @@ def test_records_give_the_values_of_the_file_read_here(tmp_path):
     same_records(recorded, here)
 
 
+def test_bezier_example_and_periodic_bspline_faces_from_records(tmp_path):
+    from hullprod_wb.examples.builtin import write_builtin_example
+    Part, V = _part()
+    path, lref, _ = write_builtin_example(str(tmp_path))  # the README example: a Bezier face
+    recorded, here = both_ways(path, lref=lref, with_fields=False)
+    assert recorded.provenance["reading"].startswith("OpenCascade in a separate process")
+    same_records(recorded, here)
+    # a B-spline cylinder and sphere, periodic in u, with a seam (both of its p-curves)
+    for name, shape in (("cyl.brep", Part.makeCylinder(1, 2).Faces[0].toNurbs()),
+                        ("sphere.brep", Part.makeSphere(1).Faces[0].toNurbs())):
+        assert shape.Faces[0].Surface.isUPeriodic()
+        p = str(tmp_path / name)
+        shape.exportBrep(p)
+        recorded, here = both_ways(p, lref=2.0, with_fields=False)
+        assert recorded.provenance["reading"].startswith("OpenCascade in a separate process")
+        same_records(recorded, here)
+
+
 def test_shared_hulls_from_records_are_the_same():
     for name, kw in (("brep/wigley_half_wavebem.iges", {}),
                      ("brep/dtmb5415_half_overture.igs", {"lref": 5720.0, "faces": [1, 2]}),
