@@ -102,6 +102,23 @@ def _dies_in_a_child(i):
     return i + 10
 
 
+def _raises_unpicklable(i):
+    class Local(Exception):  # a class pickle cannot find: the child cannot send it
+        pass
+    raise Local("item %d" % i)
+
+
+@needs_fork
+def test_forked_call_raises_here_what_the_child_could_not_send():
+    # the child leaves without sending (it never returns into the caller's code); the call
+    # is made here and raises here
+    call = face_pool.ForkedCall(lambda: _raises_unpicklable(1))
+    assert call.pid is not None
+    with pytest.raises(Exception, match="item 1"):
+        call.result()
+    assert face_pool.ForkedCall(lambda: 6 * 7).result() == 42
+
+
 @needs_fork
 def test_map_forked_same_results_here_or_in_children():
     calls = []
@@ -168,16 +185,16 @@ def test_lref_tessellation_in_a_child_is_the_one_made_here():
     here = tessellate_faces(faces, 0.02)
     assert len(here[0]) > 0 and len(here[1]) > 0 and len(here[0]) % 3 == 0
     child = LrefTessellation(faces, 0.02)
-    assert child._child is not None  # running beside this process
+    assert child.call.pid is not None  # running beside this process
     pts, tris, seconds = child.result()
-    assert (pts, tris) == here and seconds >= 0.0 and child._child is None
+    assert (pts, tris) == here and seconds >= 0.0 and child.call.pid is None
     # a child killed before it sends: the tessellation is made here, the same
     killed = LrefTessellation(faces, 0.02)
-    os.kill(killed._child[0], 9)
+    os.kill(killed.call.pid, 9)
     assert killed.result()[:2] == here
     # a result no longer wanted: the child is stopped and reaped
     unwanted = LrefTessellation(faces, 0.02)
-    pid = unwanted._child[0]
+    pid = unwanted.call.pid
     unwanted.close()
     with pytest.raises(ChildProcessError):
         os.waitpid(pid, 0)

@@ -10,7 +10,8 @@ surface patches), so the longest face does not start last.
 
 A face assessed alone is integrated in patch groups instead (quadrature.patch_groups), which
 map_forked shares between this process and children forked from it once the face's field
-and trimmed domain are built.
+and trimmed domain are built; ForkedCall is one such child, for any work on state this
+process has built.
 
 Forking is used only where it is safe: Linux, called from the main thread of a process that
 is not itself a pool worker, and not inside the FreeCAD GUI (its render and Qt threads).
@@ -139,62 +140,90 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
     return results
 
 
-def map_forked(work, n, jobs, while_waiting=None):
-    """[work(0), ..., work(n - 1)] with work(0) in this process and the others in up to
-    jobs - 1 children forked from it, for work on state this process has built (a face's
-    field and trimmed domain). Each child sends its pickled result through a pipe. Where
-    forking is not safe (fork_is_safe), with jobs <= 1, or for an item whose child died
-    before sending (a crash in the geometry kernel, memory), the item runs here instead:
-    the results are the same either way. while_waiting() is called once in this process
-    after its own items, before the children's results are collected (last, without
-    children). An exception raised by work is raised here."""
-    if n <= 1 or jobs <= 1 or not fork_is_safe():
-        results = [work(i) for i in range(n)]
-        if while_waiting is not None:
-            while_waiting()
-        return results
-    results = [None] * n
-    children = {}  # index -> (pid, read end)
+def reap(pid):
+    """Stop (if still running) and wait for the child process pid."""
     try:
-        for i in range(1, min(n, jobs)):
+        os.kill(pid, 9)
+    except OSError:
+        pass
+    try:
+        os.waitpid(pid, 0)
+    except ChildProcessError:
+        pass
+
+
+class ForkedCall:
+    """fn() computed in a child forked now (with fork, where fork_is_safe), for work on
+    state this process has built. result() returns its value, pickled through a pipe, or
+    computes it here when the child died before sending (a crash in the geometry kernel,
+    memory) or nothing was forked: the same value either way; an exception raised by fn is
+    raised by result(). close() stops and reaps a child whose result is not wanted."""
+
+    def __init__(self, fn, fork=True):
+        self.fn = fn
+        self.pid, self._fd = None, None
+        self._done, self._value = False, None
+        if fork and fork_is_safe():
             r, w = os.pipe()
             pid = os.fork()
             if pid == 0:  # child: compute, send, leave without the parent's exit handlers
                 os.close(r)
-                for _, other in children.values():
-                    os.close(other)
                 try:
-                    data = pickle.dumps((True, work(i)), pickle.HIGHEST_PROTOCOL)
-                except BaseException as exc:  # sent to the parent, raised there
-                    data = pickle.dumps((False, exc), pickle.HIGHEST_PROTOCOL)
-                with os.fdopen(w, "wb") as fh:
-                    fh.write(data)
-                os._exit(0)
+                    try:
+                        data = pickle.dumps((True, fn()), pickle.HIGHEST_PROTOCOL)
+                    except BaseException as exc:  # sent to the parent, raised there
+                        data = pickle.dumps((False, exc), pickle.HIGHEST_PROTOCOL)
+                    with os.fdopen(w, "wb") as fh:
+                        fh.write(data)
+                finally:
+                    os._exit(0)
             os.close(w)
-            children[i] = (pid, r)
-        local = [0] + list(range(min(n, jobs), n))
-        for i in local:
-            results[i] = work(i)
+            self.pid, self._fd = pid, r
+
+    def result(self):
+        if not self._done:
+            data = b""
+            if self.pid is not None:
+                with os.fdopen(self._fd, "rb") as fh:
+                    data = fh.read()
+                self._fd = None
+                reap(self.pid)
+                self.pid = None
+            if data:
+                ok, value = pickle.loads(data)
+                if not ok:
+                    raise value
+            else:
+                value = self.fn()
+            self._done, self._value = True, value
+        return self._value
+
+    def close(self):
+        if self.pid is not None:
+            reap(self.pid)
+            self.pid = None
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+
+def map_forked(work, n, jobs, while_waiting=None):
+    """[work(0), ..., work(n - 1)] with work(0) in this process and the others in up to
+    jobs - 1 children forked from it (ForkedCall), for work on state this process has built
+    (a face's field and trimmed domain); items beyond the children run here too. Where
+    forking is not safe, with jobs <= 1, or for an item whose child died before sending, the
+    item runs here instead: the results are the same either way. while_waiting() is called
+    once in this process after its own items, before the children's results are collected
+    (last, without children). An exception raised by work is raised here."""
+    fork = jobs > 1 and n > 1 and fork_is_safe()
+    children = {i: ForkedCall(lambda i=i: work(i)) for i in range(1, min(n, jobs))} if fork else {}
+    try:
+        results = [None if i in children else work(i) for i in range(n)]
         if while_waiting is not None:
             while_waiting()
-        for i in list(children):
-            pid, r = children.pop(i)
-            with os.fdopen(r, "rb") as fh:
-                data = fh.read()
-            os.waitpid(pid, 0)
-            if not data:  # the child died before it could send: do the item here
-                results[i] = work(i)
-                continue
-            ok, value = pickle.loads(data)
-            if not ok:
-                raise value
-            results[i] = value
+        for i, call in children.items():
+            results[i] = call.result()
     finally:
-        for pid, r in children.values():  # left by an exception: stop and reap the children
-            try:
-                os.kill(pid, 9)
-                os.waitpid(pid, 0)
-            except OSError:
-                pass
-            os.close(r)
+        for call in children.values():  # left by an exception: stop and reap the children
+            call.close()
     return results

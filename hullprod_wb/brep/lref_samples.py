@@ -7,12 +7,10 @@ file's assessment starts it in a child forked right after reading (start), which
 beside the loading of the numerical modules and hands back the same numbers as running it
 here. Nothing in this module needs numpy.
 """
-import os
-import struct
 import time
 from array import array
 
-from .face_pool import fork_is_safe
+from .face_pool import ForkedCall
 from .loading import load_brep
 
 #: Deflection of the L_ref tessellation, as a fraction of the bounding-box diagonal.
@@ -39,60 +37,24 @@ def tessellate_faces(faces, deflection):
 
 class LrefTessellation:
     """tessellate_faces(faces, deflection), made in a child forked now (with fork, where
-    forking is safe) or else at the first result(); result() returns it and the seconds it
-    took."""
+    forking is safe: face_pool.ForkedCall) or else at the first result(); result() returns
+    (points, triangles, seconds it took)."""
 
     def __init__(self, faces, deflection, fork=True):
         self.faces, self.deflection = list(faces), float(deflection)
-        self._value, self._child = None, None
-        if fork and fork_is_safe():
-            r, w = os.pipe()
-            pid = os.fork()
-            if pid == 0:  # child: tessellate, send, leave without the parent's exit handlers
-                os.close(r)
-                try:
-                    t = time.perf_counter()
-                    pts, tris = tessellate_faces(self.faces, self.deflection)
-                    head = struct.pack("<qqd", len(pts), len(tris), time.perf_counter() - t)
-                    with os.fdopen(w, "wb") as fh:
-                        fh.write(head + pts.tobytes() + tris.tobytes())
-                finally:
-                    os._exit(0)
-            os.close(w)
-            self._child = (pid, r)
+        self.call = ForkedCall(self._tessellate, fork)
+
+    def _tessellate(self):
+        t = time.perf_counter()
+        pts, tris = tessellate_faces(self.faces, self.deflection)
+        return pts, tris, time.perf_counter() - t
 
     def result(self):
-        """(points, triangles, seconds): the arrays of tessellate_faces."""
-        if self._value is None and self._child is not None:
-            pid, r = self._child
-            self._child = None
-            with os.fdopen(r, "rb") as fh:
-                data = fh.read()
-            os.waitpid(pid, 0)
-            if len(data) >= 24:  # else the child died before sending: tessellate here
-                n_p, n_t, seconds = struct.unpack("<qqd", data[:24])
-                pts, tris = array("d"), array("q")
-                pts.frombytes(data[24:24 + 8 * n_p])
-                tris.frombytes(data[24 + 8 * n_p:24 + 8 * (n_p + n_t)])
-                if len(pts) == n_p and len(tris) == n_t:
-                    self._value = (pts, tris, seconds)
-        if self._value is None:
-            t = time.perf_counter()
-            pts, tris = tessellate_faces(self.faces, self.deflection)
-            self._value = (pts, tris, time.perf_counter() - t)
-        return self._value
+        return self.call.result()
 
     def close(self):
         """Stop and reap a child whose result is no longer wanted."""
-        if self._child is not None:
-            pid, r = self._child
-            self._child = None
-            try:
-                os.kill(pid, 9)
-                os.waitpid(pid, 0)
-            except OSError:
-                pass
-            os.close(r)
+        self.call.close()
 
 
 def read_and_start(path, faces=None):

@@ -350,18 +350,12 @@ class ReadInChild:
 
     def close(self):
         """Stop (if still running) and reap the child."""
+        from .face_pool import reap
         if self._fh is not None:
             self._fh.close()
             self._fh = None
         if self._pid is not None:
-            try:
-                os.kill(self._pid, 9)
-            except OSError:
-                pass
-            try:
-                os.waitpid(self._pid, 0)
-            except ChildProcessError:
-                pass
+            reap(self._pid)
             self._pid = None
 
 
