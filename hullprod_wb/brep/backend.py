@@ -559,9 +559,15 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     ref = resolve_reference_length(lref_samples["points"], lref_samples["node_area"], explicit=lref,
                                    units=inp.units.get("working_unit", ""))
     deflection = (display_deflection or DISPLAY_DEFLECTION * size) if with_fields else None
+
+    def display_field(i, face):  # the face's field, from its set-up when it has one here
+        if setups:
+            return setups[i].ff
+        return face.field() if recorded else FaceField(face)
+
     samples = None
     if with_fields and not recorded:  # from records: after the quadrature, with the display meshes
-        samples = sample_faces([(n, FaceField(f)) for n, f in inp.faces], deflection)
+        samples = sample_faces([(n, display_field(i, f)) for i, (n, f) in enumerate(inp.faces)], deflection)
         if samples is None:
             raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
     th = Thresholds(ref.value, h_f, k_f)
@@ -610,7 +616,8 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         late = inp.late(with_fields, display_deflection)
         prov.update(late["provenance"])
         if with_fields:
-            samples = sample_faces([(n, f.field()) for n, f in inp.faces], deflection, late["display"])
+            samples = sample_faces([(n, display_field(i, f)) for i, (n, f) in enumerate(inp.faces)], deflection,
+                                   late["display"])
             if samples is None:
                 raise InputError("the faces could not be sampled (no display tessellation): "
                                  "empty or invalid faces")

@@ -75,6 +75,12 @@ def tessellation_samples(faces, deflection, tessellation=None):
         pts, tris, _ = tess.result()
     finally:
         tess.close()
+    return node_samples(pts, tris)
+
+
+def node_samples(pts, tris):
+    """dict(points (n, 3), node_area (n,)) of a tessellation given as lref_samples.tessellate_faces
+    gives it (flat x, y, z doubles, flat triangle node indices), or None without triangles."""
     if len(tris) == 0:
         return None
     P = np.frombuffer(pts, dtype=np.float64).reshape(-1, 3)

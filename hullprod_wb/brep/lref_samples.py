@@ -3,9 +3,9 @@
 OpenCascade tessellates the faces at SAMPLE_DEFLECTION of the shape's bounding-box diagonal
 (whatever the display settings); the area-weighted nodes then give the principal-axis
 span (core.reference_length). The tessellation holds the interpreter while it runs, so a
-file's assessment starts it in a child forked right after reading (start), which works
-beside the loading of the numerical modules and hands back the same numbers as running it
-here. Nothing in this module needs numpy.
+file read in the assessing process starts it in a child forked right after reading
+(read_and_start), which works beside the rest of the set-up and hands back the same numbers
+as running it here. Nothing in this module needs numpy.
 """
 import time
 from array import array

@@ -7,10 +7,7 @@ faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part faces w
 from the same numbers; a face whose trimmed domain needs OpenCascade itself (a p-curve
 whose conversion fails its check) is read again here (part_face).
 """
-import numpy as np
-
 from .face_field import FaceField
-from .lref_samples import LrefTessellation
 from .surface_eval import SurfaceEvaluator
 from .trimmed_domain import TrimmedDomain
 
@@ -57,22 +54,12 @@ class RecordedShape:
 
     def lref_samples(self):
         """dict(points, node_area) of the automatic-L_ref tessellation (display.tessellation_samples)."""
-        from .display import node_areas
+        from .display import node_samples, tessellation_samples
+        from .lref_samples import SAMPLE_DEFLECTION
         frame = self.reader.frame(1)
         if frame is None:  # the reading process died: tessellate here
-            pts, tris, _ = LrefTessellation([f for _, f in self._part_input().faces], self._lref_deflection(),
-                                            fork=False).result()
-        else:
-            pts, tris = frame["lref_points"], frame["lref_triangles"]
-        if len(tris) == 0:
-            return None
-        P = np.frombuffer(pts, dtype=np.float64).reshape(-1, 3)
-        T = np.frombuffer(tris, dtype=np.int64).reshape(-1, 3)
-        return {"points": P, "node_area": node_areas(P, T)}
-
-    def _lref_deflection(self):
-        from .lref_samples import SAMPLE_DEFLECTION
-        return SAMPLE_DEFLECTION * self.size
+            return tessellation_samples([f for _, f in self._part_input().faces], SAMPLE_DEFLECTION * self.size)
+        return node_samples(frame["lref_points"], frame["lref_triangles"])
 
     def late(self, with_fields, display_deflection):
         """dict(provenance, and with fields display (per face: plain_records.display_mesh) and
