@@ -481,13 +481,7 @@ class _Integrator:
         x, w, n = self.x, self.w, self.order
         pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
         nc = pid.size
-        sig = s0[:, None] + (s1 - s0)[:, None] * x[None, :]
-        P2 = np.repeat(pid[:, None], n, 1)
-        u, du = self.patches.u_of_sigma(P2, sig)
-        lo, hi = self.patches.bounds(P2, u)
-        t = t0[:, None] + (t1 - t0)[:, None] * x[None, :]
-        V = lo[:, :, None] + t[:, None, :] * (hi - lo)[:, :, None]
-        U = np.broadcast_to(u[:, :, None], V.shape)
+        U, V, du, lo, hi = cell_nodes(self.patches, pid, s0, s1, t0, t1, x)
         J, K, H, reg = (a.reshape(nc, n, n) for a in self.f(U, V))
         W = ((s1 - s0) * (t1 - t0))[:, None, None] * (w[:, None] * w[None, :])[None] \
             * (du * (hi - lo))[:, :, None]
@@ -1247,6 +1241,21 @@ def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
     return values, bounds
 
 
+def cell_nodes(patches, pid, s0, s1, t0, t1, x):
+    """Tensor nodes x (o,) of [0, 1] in the (sigma, t) cells [s0, s1] x [t0, t1] (n,) of the
+    patches pid (n,): U, V (n, o, o) (index [cell, sigma node, t node]), and per sigma node
+    du/dsigma and the strip's bounds lo, hi (n, o) (the patch map's Jacobian is
+    du (hi - lo))."""
+    o = x.size
+    sig = s0[:, None] + (s1 - s0)[:, None] * x[None, :]
+    P2 = np.repeat(pid[:, None], o, 1)
+    u, du = patches.u_of_sigma(P2, sig)
+    lo, hi = patches.bounds(P2, u)
+    t = t0[:, None] + (t1 - t0)[:, None] * x[None, :]
+    V = lo[:, :, None] + t[:, None, :] * (hi - lo)[:, :, None]
+    return np.broadcast_to(u[:, :, None], V.shape), V, du, lo, hi
+
+
 def patch_area(domain, area_element, order, u_breaks=(), v_breaks=()):
     """Represented area by the fixed tensor Gauss-Legendre rule of the given order (>= 3) on
     every boundary-fitted patch of the domain (the nodes and weights of patch_rule), from
@@ -1261,12 +1270,9 @@ def patch_area(domain, area_element, order, u_breaks=(), v_breaks=()):
     we = embedded_weights(x)
     patches = Patches.of(domain, u_breaks, v_breaks)
     n = patches.size
-    P2 = np.repeat(np.arange(n)[:, None], order, 1)
-    u, du = patches.u_of_sigma(P2, np.broadcast_to(x, (n, order)))
-    lo, hi = patches.bounds(P2, u)
-    V = lo[:, :, None] + x[None, None, :] * (hi - lo)[:, :, None]
-    J = np.asarray(area_element(np.broadcast_to(u[:, :, None], V.shape).ravel(), V.ravel())["J"],
-                   dtype=float).reshape(V.shape)
+    zero, one = np.zeros(n), np.ones(n)
+    U, V, du, lo, hi = cell_nodes(patches, np.arange(n), zero, one, zero, one, x)
+    J = np.asarray(area_element(U.ravel(), V.ravel())["J"], dtype=float).reshape(V.shape)
     J = np.where(np.isfinite(J), J, 0.0)  # as the cubature's fields: no area where J is undefined
     G = (du * (hi - lo))[:, :, None] * J  # the patch map's Jacobian times J at the nodes
     area = np.einsum("cij,i,j->c", G, w, w)
