@@ -387,6 +387,71 @@ def test_nurbs_data_pure_numpy_against_finite_differences():
         NurbsSurfaceData(3, 2, knots_u[:-1], knots_v, rng.random((7, 4, 3)))
 
 
+def gauss_grids(data, rng, n, o=5):
+    """n grids of o x o Gauss nodes, each inside one knot span of data (u (n, o), v (n, o))."""
+    x = 0.5 * (np.polynomial.legendre.leggauss(o)[0] + 1.0)
+    grids = []
+    for knots in (data.uknots_distinct, data.vknots_distinct):
+        k = rng.integers(0, knots.size - 1, n)
+        grids.append(knots[k, None] + (knots[k + 1] - knots[k])[:, None] * x[None, :])
+    return grids
+
+
+@pytest.mark.parametrize("rational", [False, True])
+def test_grid_evaluation_equals_pointwise(rational):
+    """evaluate_grid on tensor grids (one knot span each; a few crossing knots, and periodic
+    parameters outside the base period) gives evaluate's values at the broadcast points."""
+    rng = np.random.default_rng(5)
+    knots_u = [0, 0, 0, 0, 0.3, 0.6, 0.6, 1, 1, 1, 1]
+    knots_v = [0, 0, 0, 0.5, 1, 1, 1]
+    data = NurbsSurfaceData(3, 2, knots_u, knots_v, 10.0 * rng.random((7, 4, 3)),
+                            0.5 + rng.random((7, 4)) if rational else None)
+    u, v = gauss_grids(data, rng, 300)
+    u[:20] = rng.uniform(0.0, 1.0, (20, 5))  # grids across knots: point by point inside
+    v[20:40] = rng.uniform(0.0, 1.0, (20, 5))
+    U = np.broadcast_to(u[:, :, None], (300, 5, 5)).ravel()
+    V = np.broadcast_to(v[:, None, :], (300, 5, 5)).ravel()
+    for order in (0, 1, 2):
+        grid, point = data.evaluate_grid(u, v, order), data.evaluate(U, V, order)
+        assert len(grid) == len(point) == (1, 3, 6)[order]
+        for g, p in zip(grid, point):
+            assert g.shape == p.shape
+            np.testing.assert_allclose(g, p, rtol=0, atol=1e-12 * np.abs(p).max())
+    periodic = NurbsSurfaceData(3, 2, knots_u, knots_v, data.poles, data.weights, uperiod=1.0)
+    shifted = periodic.evaluate_grid(u[40:] + 2.0, v[40:])
+    for g, p in zip(shifted, data.evaluate_grid(u[40:], v[40:])):
+        np.testing.assert_allclose(g, p, rtol=0, atol=1e-12 * np.abs(p).max())
+    with pytest.raises(InputError):
+        data.evaluate_grid(u.ravel(), v.ravel())
+
+
+@needs_freecad
+def test_face_field_grid_equals_pointwise(fc):
+    """FaceField.grid and area_element_grid give the pointwise fields (J, K, H, regular) of a
+    trimmed B-spline face's grids, and the cubature's values at grid cells equal those of the
+    same field without a grid method."""
+    from hullprod_wb.brep.face_field import FaceField
+    from hullprod_wb.brep.quadrature import _Field
+    _, Part = fc
+    ff = FaceField(make_bspline(fc, rational=True).toShape())
+    rng = np.random.default_rng(2)
+    u, v = gauss_grids(ff.evaluator.nurbs, rng, 200)
+    shape = (200, 5, 5)
+    U, V = np.broadcast_to(u[:, :, None], shape).ravel(), np.broadcast_to(v[:, None, :], shape).ravel()
+    grid, point = ff.grid(u, v), ff(U, V)
+    for k in ("J", "K", "H"):
+        np.testing.assert_allclose(grid[k], point[k], rtol=1e-10, atol=1e-12 * np.abs(point[k]).max())
+    assert np.array_equal(grid["regular"], point["regular"])
+    np.testing.assert_allclose(ff.area_element_grid(u, v)["J"], ff.area_element(U, V)["J"], rtol=1e-12)
+
+    class Pointwise:  # the same field without grid()
+        def __call__(self, u, v):
+            return ff(u, v)
+    a, b = _Field(ff).grid(u, v), _Field(Pointwise()).grid(u, v)
+    for x, y in zip(a[:3], b[:3]):
+        np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-12 * np.abs(y).max())
+
+
 # ---------------------------------------------------------------------------- orientation, wrappers
 @needs_freecad
 def test_reversed_face_flips_h_keeps_k(fc):

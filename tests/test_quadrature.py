@@ -722,3 +722,37 @@ def test_tangency_points_by_newton_on_the_cell_interpolant():
     r = tangency_points(C, cells, one, np.array([2]), np.array([c]), np.array([sig(0.5)]), np.array([sig(0.9)]),
                         np.array([t(-0.9)]), np.array([t(0.9)]), np.array([sig(0.7)]), np.array([t(0.0)]), 1e-13)
     assert np.isnan(r[0])
+
+
+@needs_freecad
+def test_grid_evaluated_cells_give_the_pointwise_values(fc):
+    """A trimmed B-spline face has cells between constant bounds, evaluated as tensor grids
+    (FaceField.grid), and cells along the trim curve, point by point: the cubature and the
+    fixed area rule give the values of the same field evaluated point by point everywhere."""
+    from hullprod_wb.brep.face_field import FaceField
+    from hullprod_wb.brep.patches import Patches
+    from hullprod_wb.brep.quadrature import patch_area, tensor_cells
+    Part, V = fc.Part, fc.V
+    poles = [[V(3 * i, 2 * j, 0.3 * math.sin(i + 2 * j)) for j in range(5)] for i in range(5)]
+    s = Part.BSplineSurface()
+    s.buildFromPolesMultsKnots(poles, [4, 1, 4], [4, 1, 4], [0, 0.4, 1], [0, 0.6, 1], False, False, 3, 3)
+    face = s.toShape().cut(Part.makeCylinder(1.5, 10, V(4.2, 3.1, -5))).Faces[0]
+    d = TrimmedDomain.from_face(face)
+    ff = FaceField(face)
+    ub, vb = ff.evaluator.continuity_breaks()
+    patches = Patches.of(d, ub, vb)
+    tensor = tensor_cells(patches, np.arange(patches.size))
+    assert tensor.any() and not tensor.all()
+
+    class Pointwise:  # the same field without grid()
+        def __call__(self, u, v):
+            return ff(u, v)
+
+    a = integrate(d, ff, 0.05, 0.02, u_breaks=ub, v_breaks=vb)
+    b = integrate(d, Pointwise(), 0.05, 0.02, u_breaks=ub, v_breaks=vb)
+    for q in QUANTITIES:
+        assert a.values[q] == pytest.approx(b.values[q], rel=1e-9, abs=1e-12 * a.values["A"])
+    grid_area = patch_area(d, ff.area_element, 8, ub, vb, ff.area_element_grid)
+    point_area = patch_area(d, ff.area_element, 8, ub, vb)
+    assert grid_area[0] == pytest.approx(point_area[0], rel=1e-13)
+    assert grid_area[0] == pytest.approx(a.values["A"], rel=1e-9)

@@ -92,7 +92,7 @@ def area_rule(ff, domain, u_breaks, v_breaks):
     boundary-fitted patch (quadrature.patch_area), an estimate independent of the adaptive
     cubature, and the embedded-rule bound on its own error: (area, bound). Only J is
     evaluated (first derivatives: FaceField.area_element)."""
-    return patch_area(domain, ff.area_element, 8, u_breaks, v_breaks)
+    return patch_area(domain, ff.area_element, 8, u_breaks, v_breaks, ff.area_element_grid)
 
 
 def area_cross_check(rule, area):

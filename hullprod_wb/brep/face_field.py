@@ -26,7 +26,17 @@ class FaceField:
         u = np.asarray(u, dtype=float).ravel()
         v = np.asarray(v, dtype=float).ravel()
         self.points_evaluated += u.size
-        der = self.evaluator.derivatives(u, v)
+        return self._fields(self.evaluator.derivatives(u, v))
+
+    def grid(self, u, v):
+        """The field on the tensor grids u (n, a) x v (n, b) (SurfaceEvaluator.grid_derivatives),
+        flat in [c, i, j] order: the same dict as field(U.ravel(), V.ravel()) of the broadcast
+        grids."""
+        der = self.evaluator.grid_derivatives(u, v)
+        self.points_evaluated += der[0].shape[0]
+        return self._fields(der)
+
+    def _fields(self, der):
         d = surface_differentials(der, orientation_sign=self.sign)
         return {"J": d.J, "K": d.K, "H": d.H, "k1": d.k1, "k2": d.k2, "regular": d.regular,
                 "points": der[0]}
@@ -37,7 +47,14 @@ class FaceField:
         finite (the class and curvature quantities of such a field are meaningless)."""
         u = np.asarray(u, dtype=float).ravel()
         v = np.asarray(v, dtype=float).ravel()
-        _, su, sv = self.evaluator.first_derivatives(u, v)
-        J = jacobian(su, sv)
-        zero = np.zeros(u.size)
+        return self._area_fields(self.evaluator.first_derivatives(u, v))
+
+    def area_element_grid(self, u, v):
+        """area_element on the tensor grids u (n, a) x v (n, b), flat in [c, i, j] order."""
+        return self._area_fields(self.evaluator.grid_derivatives(u, v, 1))
+
+    @staticmethod
+    def _area_fields(der):
+        J = jacobian(der[1], der[2])
+        zero = np.zeros(J.size)
         return {"J": J, "K": zero, "H": zero, "regular": np.isfinite(J)}

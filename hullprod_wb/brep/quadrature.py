@@ -219,7 +219,20 @@ class _Field:
         if u.size == 0:
             e = np.empty(0)
             return e, e, e, np.empty(0, bool)
-        res = self.field(u, v)
+        return self._normalised(self.field(u, v), u.size)
+
+    def grid(self, u, v):
+        """The field on the tensor grids u (n, a) x v (n, b), flat in [c, i, j] order: through
+        the field's own grid(u, v) where it has one (FaceField.grid), else point by point."""
+        u = np.asarray(u, dtype=float)
+        v = np.asarray(v, dtype=float)
+        shape = (u.shape[0], u.shape[1], v.shape[1])
+        if not hasattr(self.field, "grid") or u.size == 0 or v.size == 0:
+            return self(np.broadcast_to(u[:, :, None], shape), np.broadcast_to(v[:, None, :], shape))
+        return self._normalised(self.field.grid(u, v), shape[0] * shape[1] * shape[2])
+
+    def _normalised(self, res, n):
+        """(J, K, H, regular) (n,) of a field's result; J = 0 and not regular where J is not finite."""
         get = res.get if isinstance(res, dict) else (lambda k, d=None: getattr(res, k, d))
         try:
             J, K, H = (np.asarray(get(k), dtype=float).ravel() for k in ("J", "K", "H"))
@@ -227,13 +240,13 @@ class _Field:
             raise InputError("integrand field must return arrays J, K, H (and regular): %s"
                              % exc) from exc
         reg = get("regular", None)
-        reg = np.ones(u.size, bool) if reg is None else np.asarray(reg, dtype=bool).ravel()
-        if not (J.size == K.size == H.size == reg.size == u.size):
+        reg = np.ones(n, bool) if reg is None else np.asarray(reg, dtype=bool).ravel()
+        if not (J.size == K.size == H.size == reg.size == n):
             raise InputError("integrand field returned arrays of sizes %s for %d points"
-                             % ((J.size, K.size, H.size, reg.size), u.size))
+                             % ((J.size, K.size, H.size, reg.size), n))
         bad = ~np.isfinite(J)
         reg = reg & ~bad & np.isfinite(K) & np.isfinite(H)
-        self.n_points += u.size
+        self.n_points += n
         self.n_calls += 1
         return np.where(bad, 0.0, J), K, H, reg
 
@@ -478,11 +491,11 @@ class _Integrator:
         largest |K| J), err_e (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights), pmeas (n,)
         parameter area, and the samples sJ, sK, sH, sreg (n, o, o)
         (index [cell, sigma node, t node])."""
-        x, w, n = self.x, self.w, self.order
+        x, w = self.x, self.w
         pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
         nc = pid.size
         U, V, du, lo, hi = cell_nodes(self.patches, pid, s0, s1, t0, t1, x)
-        J, K, H, reg = (a.reshape(nc, n, n) for a in self.f(U, V))
+        J, K, H, reg = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, pid), U, V)
         W = ((s1 - s0) * (t1 - t0))[:, None, None] * (w[:, None] * w[None, :])[None] \
             * (du * (hi - lo))[:, :, None]
         f, cls = self._integrands(J, K, H, reg)
@@ -1256,11 +1269,38 @@ def cell_nodes(patches, pid, s0, s1, t0, t1, x):
     return np.broadcast_to(u[:, :, None], V.shape), V, du, lo, hi
 
 
-def patch_area(domain, area_element, order, u_breaks=(), v_breaks=()):
+def tensor_cells(patches, pid):
+    """(n,) bool: cells of the patches pid whose nodes (cell_nodes) form tensor grids in (u, v),
+    U[c, i, :] = u_ci and V[c, :, j] = v_cj: those of patches between constant bounds
+    (interior knot spans, box edges)."""
+    return (patches.lo_piece[pid] < 0) & (patches.hi_piece[pid] < 0)
+
+
+def values_at_nodes(pointwise, grid, tensor, U, V):
+    """Arrays (n, o, o) of a field at cell nodes U, V (n, o, o): grid(U[i, :, 0], V[i, 0, :])
+    on the tensor cells i (tensor_cells; grid None: none), pointwise(U[i], V[i]) on the
+    others; both return a tuple of flat arrays in [c, i, j] order."""
+    tensor = tensor if grid is not None else np.zeros(U.shape[0], bool)
+    out = None
+    for sel, values in ((tensor, lambda i: grid(U[i, :, 0], V[i, 0, :])),
+                        (~tensor, lambda i: pointwise(U[i], V[i]))):
+        i = np.nonzero(sel)[0]
+        if i.size == U.shape[0]:
+            return tuple(a.reshape(U.shape) for a in values(i))
+        if i.size:
+            vals = values(i)
+            out = out or [np.empty(U.shape, a.dtype) for a in vals]
+            for a, b in zip(out, vals):
+                a[i] = b.reshape(i.size, *U.shape[1:])
+    return tuple(out)
+
+
+def patch_area(domain, area_element, order, u_breaks=(), v_breaks=(), area_element_grid=None):
     """Represented area by the fixed tensor Gauss-Legendre rule of the given order (>= 3) on
     every boundary-fitted patch of the domain (the nodes and weights of patch_rule), from
-    area_element(u, v) -> dict with J alone, and the summed embedded-rule differences as a
-    bound on its error: (area, bound)."""
+    area_element(u, v) -> dict with J alone (and area_element_grid(u, v), the same on tensor
+    grids as FaceField.area_element_grid, for the patches between constant bounds), and the
+    summed embedded-rule differences as a bound on its error: (area, bound)."""
     if not isinstance(domain, TrimmedDomain):
         raise InputError("patch_area() needs a TrimmedDomain, got %s" % type(domain).__name__)
     order = int(order)
@@ -1271,8 +1311,12 @@ def patch_area(domain, area_element, order, u_breaks=(), v_breaks=()):
     patches = Patches.of(domain, u_breaks, v_breaks)
     n = patches.size
     zero, one = np.zeros(n), np.ones(n)
-    U, V, du, lo, hi = cell_nodes(patches, np.arange(n), zero, one, zero, one, x)
-    J = np.asarray(area_element(U.ravel(), V.ravel())["J"], dtype=float).reshape(V.shape)
+    pid = np.arange(n)
+    U, V, du, lo, hi = cell_nodes(patches, pid, zero, one, zero, one, x)
+    grid = None if area_element_grid is None else (
+        lambda u, v: (np.asarray(area_element_grid(u, v)["J"], dtype=float).ravel(),))
+    J, = values_at_nodes(lambda u, v: (np.asarray(area_element(u.ravel(), v.ravel())["J"], dtype=float).ravel(),),
+                         grid, tensor_cells(patches, pid), U, V)
     J = np.where(np.isfinite(J), J, 0.0)  # as the cubature's fields: no area where J is undefined
     G = (du * (hi - lo))[:, :, None] * J  # the patch map's Jacobian times J at the nodes
     area = np.einsum("cij,i,j->c", G, w, w)

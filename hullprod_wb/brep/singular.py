@@ -176,9 +176,17 @@ class ExcludedBoxesField:
         return getattr(self.ff, name)
 
     def __call__(self, u, v):
-        f = self.ff(u, v)
+        return self._excluded(self.ff(u, v), np.asarray(u, dtype=float), np.asarray(v, dtype=float))
+
+    def grid(self, u, v):
+        """The field on the tensor grids u (n, a) x v (n, b) (FaceField.grid)."""
         u = np.asarray(u, dtype=float)
         v = np.asarray(v, dtype=float)
+        shape = (u.shape[0], u.shape[1], v.shape[1])
+        return self._excluded(self.ff.grid(u, v), np.broadcast_to(u[:, :, None], shape).ravel(),
+                              np.broadcast_to(v[:, None, :], shape).ravel())
+
+    def _excluded(self, f, u, v):
         inside = np.zeros(u.shape, dtype=bool)
         for a, b, c, d in self.boxes:
             inside |= (u > a) & (u < b) & (v > c) & (v < d)

@@ -173,6 +173,19 @@ class SurfaceEvaluator:
         """(S, Su, Sv, Suu, Suv, Svv), each (n, 3) float."""
         return self._backend.evaluate(u, v, 2)
 
+    def grid_derivatives(self, u, v, order=2):
+        """derivatives (order 2) or first_derivatives (order 1) on the tensor grids u (n, a) x
+        v (n, b): the points (u[c, i], v[c, j]) flat in [c, i, j] order (n a b, 3) each.
+        B-spline and Bezier surfaces share each grid's basis functions and poles
+        (NurbsSurfaceData.evaluate_grid); other surfaces are evaluated point by point."""
+        u = np.asarray(u, dtype=float)
+        v = np.asarray(v, dtype=float)
+        if self.nurbs is not None:
+            return self.nurbs.evaluate_grid(u, v, order)
+        shape = (u.shape[0], u.shape[1], v.shape[1])
+        return self._backend.evaluate(np.broadcast_to(u[:, :, None], shape).ravel(),
+                                      np.broadcast_to(v[:, None, :], shape).ravel(), order)
+
     def differentials(self, u, v, eps=differential.DEFAULT_DEGENERACY_EPS, scale=None, directions=False):
         """Fundamental forms, oriented normal, H, K, k1 >= k2 at (u, v) (eq:brephk).
 
