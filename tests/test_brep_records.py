@@ -237,3 +237,47 @@ def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatc
     monkeypatch.setattr(TrimmedDomain, "from_record", classmethod(lambda cls, rec, evaluator: None))
     r = assess_brep(ReadInChild(path, None, False), with_fields=False, lref=4.0)
     same_records(r, here)
+
+
+def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, monkeypatch):
+    """The records arrive before the L_ref tessellation; while it runs, this process sets the
+    faces up (smallest first) for the worker processes, which take those set-ups over: the
+    numbers are those of the file read here. A face whose domain needs OpenCascade is left
+    to its worker."""
+    from hullprod_wb.brep import backend
+    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.recorded_shape import RecordedShape
+    from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+    Part, _ = _part()
+    path = str(tmp_path / "two.step")
+    Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()]).exportStep(path)
+    here = backend.assess_brep(path, lref=4.0, jobs=2, with_fields=False)
+
+    reader = ReadInChild(path, None, False)
+    first = reader.frame(0)
+    assert all("area" not in rec for rec in first["faces"])  # OpenCascade's areas come last
+    reader.frame(1)
+    assert reader.ready(0) and reader.ready(1)
+    reader.close()
+
+    made = []
+    here_ = backend.FaceSetup.here
+
+    def counted(face, area_check=False):
+        made.append(face.number)
+        return here_(face, area_check)
+    polls = iter([False, False, False, False])  # still tessellating for two faces' set-ups
+    monkeypatch.setattr(RecordedShape, "lref_ready", lambda self: next(polls, True))
+    monkeypatch.setattr(backend.FaceSetup, "here", staticmethod(counted))
+    r = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
+    assert sorted(made) == [1, 2]
+    same_records(r, here)
+
+    made.clear()
+    polls = iter([False] * 4)
+    monkeypatch.setattr(TrimmedDomain, "from_record", classmethod(lambda cls, rec, evaluator: None))
+    shape = RecordedShape(ReadInChild(path, None, False))
+    assert here_(shape.faces[0][1]) is None
+    shape.close()
+    r = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
+    same_records(r, here)

@@ -222,13 +222,19 @@ def polygon_domain(face):
     return domain
 
 
+class _NeedsPartFace(Exception):
+    """A recorded face whose trimmed domain needs the Part face (FaceSetup(part_face=False))."""
+
+
 class FaceSetup:
     """What a face's integration needs before the class thresholds are known: its field and
     trimmed domain, knot lines, degenerate set and neighbourhood quadrants, the knot and
     box lines of its patches (gu, gv), the field with the neighbourhoods excluded, and the
-    independent area rule once computed (area_rule, with its seconds)."""
+    independent area rule once computed (area_rule, with its seconds). part_face=False: a
+    recorded face whose domain needs the Part face raises _NeedsPartFace instead of reading
+    the file here."""
 
-    def __init__(self, face, area_check=False):
+    def __init__(self, face, area_check=False, part_face=True):
         self.recorded = isinstance(face, FaceRecord)
         ff = face.field() if self.recorded else None
         domain = face.domain(ff.evaluator) if self.recorded else None
@@ -236,6 +242,8 @@ class FaceSetup:
             domain.fallback = None
         else:
             if self.recorded:  # a domain that needs OpenCascade itself: the face, read here
+                if not part_face:
+                    raise _NeedsPartFace()
                 face = face.part_face()
                 self.recorded = False
             ff = FaceField(face)
@@ -261,12 +269,35 @@ class FaceSetup:
         if area_check:
             self.area_check()
 
+    @classmethod
+    def here(cls, face, area_check=False):
+        """FaceSetup(face) when its records describe its trimmed domain (or it is a Part face),
+        else None: a face that needs OpenCascade is set up in the process that integrates it."""
+        try:
+            return cls(face, area_check, part_face=False)
+        except _NeedsPartFace:
+            return None
+
     def area_check(self):
         """area_rule of the face (independent of the adaptive cubature), once."""
         if "rule" not in self.check:
             t = time.perf_counter()
             self.check["rule"] = area_rule(self.ff, self.domain, self.gu, self.gv)
             self.check["seconds"] = time.perf_counter() - t
+
+
+def set_up_until(done, faces, cost, area_check):
+    """FaceSetup.here of the faces, smallest cost first, each with its area rule when
+    area_check, until done() (None: none is set up): a list with None where a face was not
+    set up."""
+    setups = [None] * len(faces)
+    for i in sorted(range(len(faces)), key=lambda i: cost[i]) if done is not None else ():
+        if done():
+            break
+        setups[i] = FaceSetup.here(faces[i])
+        if area_check and setups[i] is not None and not done():
+            setups[i].area_check()
+    return setups
 
 
 def assess_face(number, face, thresholds, lref, opts, progress=null_progress, groups=False, group_jobs=1,
@@ -540,12 +571,19 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
 
     t = time.perf_counter()
     n_jobs = resolve_jobs(jobs, len(inp.faces))
-    # faces integrated in this process are set up while the L_ref tessellation runs beside
-    # (their set-up does not depend on the thresholds)
-    setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces] if n_jobs == 1 else None
+    cost = [f.patch_count if recorded else patch_count(f) for _, f in inp.faces]
+    # Faces are set up while the L_ref tessellation runs beside (their set-up does not
+    # depend on the thresholds): all of them when they are integrated here, else, smallest
+    # first, as many set-ups and area rules as are done before the tessellation is (the
+    # worker processes, forked later, take them over).
+    if n_jobs == 1:
+        setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces]
+    else:
+        tessellated = inp.lref_ready if recorded else getattr(inp.lref_tessellation, "ready", None)
+        setups = set_up_until(tessellated, [f for _, f in inp.faces], cost, cross_checks)
     if recorded:
         size = inp.size
-        occ_areas = [f.area for _, f in inp.faces]
+        occ_areas = None
         lref_samples = inp.lref_samples()
     else:
         boxes = shape_boxes(inp.shape, inp.faces)  # before anything is tessellated here
@@ -561,7 +599,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     deflection = (display_deflection or DISPLAY_DEFLECTION * size) if with_fields else None
 
     def display_field(i, face):  # the face's field, from its set-up when it has one here
-        if setups:
+        if setups[i] is not None:
             return setups[i].ff
         return face.field() if recorded else FaceField(face)
 
@@ -574,7 +612,8 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     timings["display_samples"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    areas = np.maximum(np.array(occ_areas, dtype=float), 0.0)
+    # progress weights: OpenCascade's face areas where known, else the faces' patch counts
+    areas = np.maximum(np.array(cost if occ_areas is None else occ_areas, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
     # a face assessed alone is integrated in patch groups, which share the CPUs instead of
     # faces (several faces: the faces do)
@@ -591,7 +630,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         else:
             sub = null_progress
         return assess_face(number, face, th, ref.value, opts, sub, groups, group_jobs, cross_checks,
-                           setups[i] if setups else None).detach()
+                           setups[i]).detach()
 
     def finished(i, f):
         done[0] += weights[i]
@@ -608,7 +647,6 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
             prov.update(shape_provenance(inp.shape, inp.faces, occ_areas, boxes))
         timings["provenance"] = time.perf_counter() - tp
 
-    cost = [f.patch_count if recorded else patch_count(f) for _, f in inp.faces]
     results = map_faces(face_work, len(inp.faces), n_jobs, cost=cost, on_done=finished,
                         labels=["Face%d" % n for n, _ in inp.faces], while_waiting=shape_records)
     if recorded:  # what the reading process made last: provenance, OpenCascade's values

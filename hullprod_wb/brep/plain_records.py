@@ -12,8 +12,9 @@ the faces, and the results are the same to the bit).
 The child sends three frames: the face records (with OpenCascade's values at the
 cross-check points and the edges' vertices) and the file's description; the nodes of the
 automatic-L_ref tessellation; then, at the lowest priority, what is only needed at the end
-(provenance, the display tessellation). The records of several faces are made in a child of
-the child while it tessellates. A shape with a face this module does not describe (another
+(provenance with OpenCascade's face areas, the display tessellation). The records come
+first, so that the parent sets the faces up while the tessellation runs (ReadInChild.ready
+tells it whether the next frame is there). A shape with a face this module does not describe (another
 surface type, a planar face, a p-curve of another type or none) is reported as unsupported,
 and the parent reads the file itself.
 
@@ -21,6 +22,7 @@ Nothing here imports numpy: the reading side never loads it.
 """
 import os
 import pickle
+import select
 import struct
 import time
 from array import array
@@ -199,8 +201,9 @@ def face_record(face):
     """(record, None) of a face whose surface is a B-spline or Bezier surface and whose
     p-curves this module describes, else (None, the reason). The record: surface_type,
     nurbs (nurbs_record), orientation_sign, parameter_range, pcurves (pcurve_record each),
-    end_vertices and vertices (edge_vertices), patch_count, area (OpenCascade's),
-    occ_reference."""
+    end_vertices and vertices (edge_vertices), patch_count, occ_reference. OpenCascade's
+    area of the face (slow: tens of milliseconds on a hull's faces) is not part of it; the
+    provenance takes it last."""
     surface = unwrap_surface(face.Surface)
     name = type(surface).__name__
     nurbs = nurbs_record(surface)
@@ -218,8 +221,8 @@ def face_record(face):
     return {"surface_type": type(face.Surface).__name__, "kind": "bspline" if name == "BSplineSurface" else "bezier",
             "nurbs": nurbs, "orientation_sign": orientation_sign_of(face),
             "parameter_range": tuple(float(x) for x in face.ParameterRange), "pcurves": pcurves,
-            "patch_count": patch_count(face), "area": float(face.Area),
-            "occ_reference": occ_reference(face), "end_vertices": end_vertices, "vertices": vertices}, None
+            "patch_count": patch_count(face), "occ_reference": occ_reference(face),
+            "end_vertices": end_vertices, "vertices": vertices}, None
 
 
 # -- the child -------------------------------------------------------------------------------
@@ -228,39 +231,24 @@ def face_record(face):
 def _frames(inp, with_fields, display_deflection, read_seconds):
     """The three frames of the records of a loaded BRepInput (see the module doc)."""
     from ..freecad_env import versions
-    from .face_pool import map_forked
     from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
     from .provenance import shape_boxes
     boxes = shape_boxes(inp.shape, inp.faces)  # before any tessellation, as when read here
     size = float(boxes[0].DiagonalLength)
-
-    def records():
-        out = []
-        for number, face in inp.faces:
-            rec, why = face_record(face)
-            if rec is None:
-                return "Face%d has %s" % (number, why)
-            rec["number"] = number
-            out.append(rec)
-        return out
-
-    def tessellation():
-        t = time.perf_counter()
-        pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
-        return {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t}
-
-    if len(inp.faces) > 1:
-        # the records of several faces take as long as a part of the tessellation: made in a
-        # child of this process meanwhile (the tessellation stays here, on this shape)
-        tess, faces = map_forked(lambda i: tessellation() if i == 0 else records(), 2, 2)
-    else:  # the parent sets up the face while the tessellation runs
-        tess, faces = None, records()
-    if isinstance(faces, str):
-        yield {"unsupported": faces}
-        return
+    faces = []
+    for number, face in inp.faces:
+        rec, why = face_record(face)
+        if rec is None:
+            yield {"unsupported": "Face%d has %s" % (number, why)}
+            return
+        rec["number"] = number
+        faces.append(rec)
+    # the records first: the parent sets the faces up while the tessellation runs here
     yield {"info": inp.info, "units": inp.units, "faces": faces, "size": size, "versions": versions(),
            "read_seconds": read_seconds}
-    yield tess or tessellation()
+    t = time.perf_counter()
+    pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
+    yield {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t}
     # the rest is needed only at the end: give the CPUs to the integration meanwhile
     try:
         os.nice(19)
@@ -272,10 +260,8 @@ def _frames(inp, with_fields, display_deflection, read_seconds):
         deflection = display_deflection or DISPLAY_DEFLECTION * size
         late["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
         late["display_deflection"] = deflection
-    late["provenance"] = shape_provenance(inp.shape, inp.faces, [r["area"] for r in faces], boxes)
+    late["provenance"] = shape_provenance(inp.shape, inp.faces, None, boxes)
     yield late
-
-
 
 
 def display_mesh(face, deflection):
@@ -324,7 +310,17 @@ class ReadInChild:
             finally:
                 os._exit(0)
         os.close(w)
-        self._fh, self._pid = os.fdopen(r, "rb"), pid
+        # unbuffered: nothing of a later frame waits in a buffer where ready() cannot see it
+        self._fh, self._pid = os.fdopen(r, "rb", buffering=0), pid
+
+    def ready(self, k):
+        """Whether frame(k) would return without waiting for the child (or the child has
+        ended): frame k has arrived, or the next frame has begun to arrive."""
+        if len(self._frames) > k or self._fh is None:
+            return True
+        if len(self._frames) < k:
+            return False
+        return bool(select.select([self._fh], [], [], 0.0)[0])
 
     def frame(self, k):
         while len(self._frames) <= k and self._fh is not None:
@@ -365,12 +361,24 @@ def _send(fh, obj):
     fh.flush()
 
 
+def _read_exactly(fh, n):
+    """n bytes from the unbuffered file fh (fewer at its end)."""
+    parts, left = [], n
+    while left > 0:
+        chunk = fh.read(min(left, 1 << 20))
+        if not chunk:
+            break
+        parts.append(chunk)
+        left -= len(chunk)
+    return b"".join(parts)
+
+
 def _receive(fh):
-    head = fh.read(8)
+    head = _read_exactly(fh, 8)
     if len(head) < 8:
         return None
     n = struct.unpack("<q", head)[0]
-    data = fh.read(n)
+    data = _read_exactly(fh, n)
     if len(data) < n:
         return None
     try:

@@ -1,8 +1,8 @@
 """A BRep file assessed from the plain records its reading process sent (plain_records).
 
 RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput: faces
-(with OpenCascade's areas and cross-check values), description, bounding-box size, the
-automatic-L_ref nodes, and (late) the provenance and the display tessellation. Its
+(with OpenCascade's cross-check values), description, bounding-box size, the automatic-L_ref
+nodes, and (late) the provenance, with OpenCascade's face areas, and the display tessellation. Its
 faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part faces would, built
 from the same numbers; a face whose trimmed domain needs OpenCascade itself (a p-curve
 whose conversion fails its check) is read again here (part_face).
@@ -13,15 +13,13 @@ from .trimmed_domain import TrimmedDomain
 
 
 class FaceRecord:
-    """One face of a RecordedShape: number, surface_type, area (OpenCascade's), patch_count,
-    occ_reference (OpenCascade's values at the cross-check points), and field(), domain()
+    """One face of a RecordedShape: number, surface_type, patch_count, occ_reference (OpenCascade's values at the cross-check points), and field(), domain()
     (None when it needs the Part face: part_face())."""
 
     def __init__(self, rec, path):
         self.rec, self.path = rec, path
         self.number = rec["number"]
         self.surface_type = rec["surface_type"]
-        self.area = rec["area"]
         self.patch_count = rec["patch_count"]
         self.occ_reference = rec["occ_reference"]
 
@@ -40,7 +38,8 @@ class FaceRecord:
 class RecordedShape:
     """The records of a BRep file (plain_records.ReadInChild, whose first frame has arrived
     and is supported): info, units, faces [(number, FaceRecord)], size (bounding-box
-    diagonal), read_seconds; lref_samples() and late() read the later frames."""
+    diagonal), read_seconds; lref_samples() and late() read the later frames, lref_ready()
+    tells whether the first of them is there."""
 
     def __init__(self, reader):
         first = reader.frame(0)
@@ -51,6 +50,10 @@ class RecordedShape:
         self.versions = first["versions"]
         self.faces = [(r["number"], FaceRecord(r, reader.path)) for r in first["faces"]]
         self._late = None
+
+    def lref_ready(self):
+        """Whether lref_samples() would return without waiting for the reading process."""
+        return self.reader.ready(1)
 
     def lref_samples(self):
         """dict(points, node_area) of the automatic-L_ref tessellation (display.tessellation_samples)."""
@@ -83,7 +86,7 @@ class RecordedShape:
             deflection = display_deflection or DISPLAY_DEFLECTION * self.size
             out["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
             out["display_deflection"] = deflection
-        out["provenance"] = shape_provenance(inp.shape, inp.faces, [f.area for _, f in self.faces], boxes)
+        out["provenance"] = shape_provenance(inp.shape, inp.faces, None, boxes)
         return out
 
     def _part_input(self):
