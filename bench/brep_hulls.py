@@ -8,8 +8,10 @@ from PyPI, installed into a throwaway virtual environment, never a project depen
 the same run, and the time ratios are printed: of the whole commands, of the commands less
 each tool's start-up (the best of three `--help` runs: interpreter and imports), and of their
 CPU times. Each command runs --repeat times (default 3; the reference only while one of its
-runs takes under REPEAT_LIMIT seconds, else once) and the medians are compared: on a shared
-machine single runs of a fraction of a second move by 10 % and more.
+runs takes under REPEAT_LIMIT seconds, else once), the two tools in turn (ours, the
+reference, ours, ...) so that both meet the same state of the machine, and the medians are
+compared: on a shared machine single runs of a fraction of a second move by 10 % and more,
+and the machine's speed drifts by tens of percent within minutes.
 
     /usr/bin/python3 bench/brep_hulls.py [--reference] [--repeat N] [--venv DIR] [--hulls DIR]
 """
@@ -67,18 +69,26 @@ def run_ours(path, lref):
             "points": doc["options"].get("points_evaluated")}
 
 
-def repeated(run, repeat, limit=None):
-    """run() repeat times (fewer once a run took limit seconds or more); the result of the
-    run with the median wall time, with the wall times of all runs ("walls")."""
-    results = []
-    for _ in range(max(1, repeat)):
-        results.append(run())
-        if "error" in results[-1] or (limit is not None and results[-1]["wall"] >= limit):
-            break
-    walls = [r["wall"] for r in results]
+def median_run(results):
+    """The result of the run with the median wall time, with the wall times of all runs
+    ("walls")."""
     res = dict(sorted(results, key=lambda r: r["wall"])[(len(results) - 1) // 2])
-    res["walls"] = walls
+    res["walls"] = [r["wall"] for r in results]
     return res
+
+
+def alternating(run_a, run_b, repeat, limit_b=None):
+    """run_a() and run_b() (None: none) in turn, repeat times each, so that both see the same
+    state of a shared machine (run_b fewer times once one of its runs took limit_b seconds
+    or more; run_a then goes on alone); the median runs of both (median_run)."""
+    a, b = [], []
+    for _ in range(max(1, repeat)):
+        a.append(run_a())
+        if run_b is not None and not (b and ("error" in b[-1] or (limit_b is not None and b[-1]["wall"] >= limit_b))):
+            b.append(run_b())
+        if "error" in a[-1]:
+            break
+    return median_run(a), (median_run(b) if b else None)
 
 
 def ensure_reference_venv(venv):
@@ -147,8 +157,9 @@ def main():
     rows = []
     for f in files:
         name = os.path.basename(f)
-        ours = repeated(lambda: run_ours(f, LREF.get(name)), args.repeat)
-        ref = repeated(lambda: run_reference(exe, f, LREF.get(name)), args.repeat, REPEAT_LIMIT) if exe else None
+        ours, ref = alternating(lambda: run_ours(f, LREF.get(name)),
+                                (lambda: run_reference(exe, f, LREF.get(name))) if exe else None,
+                                args.repeat, REPEAT_LIMIT)
         rows.append((name, ours, ref))
         print("%-30s %9.2f %8.2f %5s %11s %12s  %s" % (name, ours["wall"], ours["cpu"], ours.get("jobs"), ours.get("points"),
                                             "%.6g" % ours["I_D"] if ours.get("I_D") is not None else "null",
