@@ -14,7 +14,7 @@ def _launcher_env(**given):
     print of the environment (the rest of the script runs as it is)."""
     script = open(os.path.join(ROOT, "hullprod")).read()
     body, _, last = script.rstrip("\n").rpartition("\n")
-    assert "exec /usr/bin/python3 -m hullprod_wb.cli" in last
+    assert "exec /usr/bin/python3 -P -m hullprod_wb.cli" in last
     env = {k: v for k, v in os.environ.items() if k not in DEFAULTS}
     env.update(given)
     out = subprocess.run(["sh", "-c", body + "\nenv\n", os.path.join(ROOT, "hullprod")],
@@ -33,3 +33,17 @@ def test_launcher_keeps_the_callers_values():
     assert env["MALLOC_TOP_PAD_"] == "4096"
     assert env["OPENBLAS_NUM_THREADS"] == "2"
     assert env["MALLOC_TRIM_THRESHOLD_"] == DEFAULTS["MALLOC_TRIM_THRESHOLD_"]
+
+
+def test_launcher_uses_its_own_package_whatever_the_current_directory(tmp_path):
+    """A hullprod_wb package in the current directory (another checkout, say) is not the
+    one the launcher runs."""
+    fake = tmp_path / "hullprod_wb"
+    fake.mkdir()
+    (fake / "__init__.py").write_text("")
+    (fake / "cli.py").write_text("print('the package of the current directory')\n")
+    out = subprocess.run([os.path.join(ROOT, "hullprod"), "--help"], capture_output=True,
+                         text=True, cwd=str(tmp_path))
+    assert out.returncode == 0, out.stderr
+    assert "current directory" not in out.stdout
+    assert "analyze" in out.stdout
