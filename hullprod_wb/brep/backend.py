@@ -573,14 +573,15 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     n_jobs = resolve_jobs(jobs, len(inp.faces))
     cost = [f.patch_count if recorded else patch_count(f) for _, f in inp.faces]
     # Faces are set up while the L_ref tessellation runs beside (their set-up does not
-    # depend on the thresholds): all of them when they are integrated here, else, smallest
-    # first, as many set-ups and area rules as are done before the tessellation is (the
-    # worker processes, forked later, take them over).
+    # depend on the thresholds): all of them when they are integrated here, else, from
+    # records (numpy alone: nothing here can crash in the geometry kernel, whose crashes the
+    # worker processes isolate), smallest first, as many set-ups and area rules as are done
+    # before the tessellation is (the worker processes, forked later, take them over).
     if n_jobs == 1:
         setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces]
     else:
-        tessellated = inp.lref_ready if recorded else getattr(inp.lref_tessellation, "ready", None)
-        setups = set_up_until(tessellated, [f for _, f in inp.faces], cost, cross_checks)
+        setups = set_up_until(inp.lref_ready if recorded else None, [f for _, f in inp.faces], cost,
+                              cross_checks)
     if recorded:
         size = inp.size
         occ_areas = None

@@ -19,7 +19,6 @@ Elsewhere, and with jobs=1, the faces run in this process with progress inside e
 """
 import os
 import pickle
-import select
 import sys
 import threading
 
@@ -158,8 +157,7 @@ class ForkedCall:
     state this process has built. result() returns its value, pickled through a pipe, or
     computes it here when the child died before sending (a crash in the geometry kernel,
     memory) or nothing was forked: the same value either way; an exception raised by fn is
-    raised by result(); ready() tells whether it would wait. close() stops and reaps a child
-    whose result is not wanted."""
+    raised by result(). close() stops and reaps a child whose result is not wanted."""
 
     def __init__(self, fn, fork=True):
         self.fn = fn
@@ -181,13 +179,6 @@ class ForkedCall:
                     os._exit(0)
             os.close(w)
             self.pid, self._fd = pid, r
-
-    def ready(self):
-        """Whether result() would return without waiting for the child (it has begun to
-        send, ended, or nothing was forked)."""
-        if self._done or self.pid is None:
-            return True
-        return bool(select.select([self._fd], [], [], 0.0)[0])
 
     def result(self):
         if not self._done:

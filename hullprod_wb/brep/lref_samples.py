@@ -38,7 +38,7 @@ def tessellate_faces(faces, deflection):
 class LrefTessellation:
     """tessellate_faces(faces, deflection), made in a child forked now (with fork, where
     forking is safe: face_pool.ForkedCall) or else at the first result(); result() returns
-    (points, triangles, seconds it took), ready() whether it would wait."""
+    (points, triangles, seconds it took)."""
 
     def __init__(self, faces, deflection, fork=True):
         self.faces, self.deflection = list(faces), float(deflection)
@@ -51,10 +51,6 @@ class LrefTessellation:
 
     def result(self):
         return self.call.result()
-
-    def ready(self):
-        """Whether result() would return without waiting for the child."""
-        return self.call.ready()
 
     def close(self):
         """Stop and reap a child whose result is no longer wanted."""
