@@ -291,7 +291,9 @@ def set_up_until(done, faces, cost, area_check):
     area_check, until done() (None: none is set up): a list with None where a face was not
     set up."""
     setups = [None] * len(faces)
-    for i in sorted(range(len(faces)), key=lambda i: cost[i]) if done is not None else ():
+    if done is None:
+        return setups
+    for i in sorted(range(len(faces)), key=lambda i: cost[i]):
         if done():
             break
         setups[i] = FaceSetup.here(faces[i])
@@ -604,11 +606,15 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
             return setups[i].ff
         return face.field() if recorded else FaceField(face)
 
+    def display_samples(meshes=None):  # exact fields at the display nodes (display.sample_faces)
+        out = sample_faces([(n, display_field(i, f)) for i, (n, f) in enumerate(inp.faces)], deflection, meshes)
+        if out is None:
+            raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
+        return out
+
     samples = None
     if with_fields and not recorded:  # from records: after the quadrature, with the display meshes
-        samples = sample_faces([(n, display_field(i, f)) for i, (n, f) in enumerate(inp.faces)], deflection)
-        if samples is None:
-            raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
+        samples = display_samples()
     th = Thresholds(ref.value, h_f, k_f)
     timings["display_samples"] = time.perf_counter() - t
 
@@ -655,11 +661,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         late = inp.late(with_fields, display_deflection)
         prov.update(late["provenance"])
         if with_fields:
-            samples = sample_faces([(n, display_field(i, f)) for i, (n, f) in enumerate(inp.faces)], deflection,
-                                   late["display"])
-            if samples is None:
-                raise InputError("the faces could not be sampled (no display tessellation): "
-                                 "empty or invalid faces")
+            samples = display_samples(late["display"])
         timings["provenance"] += time.perf_counter() - tp
     timings["quadrature"] = time.perf_counter() - t
 

@@ -13,7 +13,6 @@ from .lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401
 from .plain_records import DISPLAY_DEFLECTION, display_mesh  # noqa: F401
 
 
-
 def face_display_mesh(mesh, field):
     """(uv (n, 2), field values at uv, triangles (m, 3)) of OpenCascade's tessellation of a
     face, mesh = plain_records.display_mesh(face, deflection).

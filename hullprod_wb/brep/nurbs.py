@@ -29,7 +29,7 @@ from .plain_records import nurbs_record
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
-#: Grids evaluated per block by evaluate_grid; bounds its products (block x 9 a b x 4 floats).
+#: Grids evaluated per block by evaluate_grid; bounds its products (block x 6 a b x 4 floats).
 GRID_CHUNK = 1024
 
 
@@ -40,6 +40,14 @@ def _as_points(u, v):
     except ValueError as exc:
         raise InputError("parameter arrays u and v have incompatible shapes: %s" % exc) from exc
     return np.ascontiguousarray(uu).ravel(), np.ascontiguousarray(vv).ravel()
+
+
+def grid_points(u, v):
+    """The points of the tensor grids u (n, a) x v (n, b), (u[c, i], v[c, j]), as two flat
+    arrays (n a b,) in [c, i, j] order."""
+    u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+    shape = (u.shape[0], u.shape[1], v.shape[1])
+    return np.broadcast_to(u[:, :, None], shape).ravel(), np.broadcast_to(v[:, None, :], shape).ravel()
 
 
 def find_spans(knots, degree, x):
@@ -346,9 +354,7 @@ class NurbsSurfaceData:
                 o[r] = g.reshape(r.size, a, b, 3)
         rows = np.nonzero(~one)[0]
         if rows.size:
-            U = np.broadcast_to(u[rows, :, None], (rows.size, a, b)).ravel()
-            V = np.broadcast_to(v[rows, None, :], (rows.size, a, b)).ravel()
-            for o, g in zip(out, self.evaluate(U, V, order)):
+            for o, g in zip(out, self.evaluate(*grid_points(u[rows], v[rows]), order)):
                 o[rows] = g.reshape(rows.size, a, b, 3)
             out[0][rows] -= self._center  # added to all below
         out = [o.reshape(n * a * b, 3) for o in out]

@@ -75,6 +75,7 @@ from .cell_interpolant import (SegmentField, cell_values, fit_interpolants, grid
                                tangency_points)
 from .gauss_rules import (WK, XK, embedded_weights, gauss_nodes, kronrod_error, legendre_vander,
                           piece_weights)
+from .nurbs import grid_points
 from .patches import Patches, cluster_map
 from .trimmed_domain import TrimmedDomain, solve_bracketed
 
@@ -224,12 +225,10 @@ class _Field:
     def grid(self, u, v):
         """The field on the tensor grids u (n, a) x v (n, b), flat in [c, i, j] order: through
         the field's own grid(u, v) where it has one (FaceField.grid), else point by point."""
-        u = np.asarray(u, dtype=float)
-        v = np.asarray(v, dtype=float)
-        shape = (u.shape[0], u.shape[1], v.shape[1])
-        if not hasattr(self.field, "grid") or u.size == 0 or v.size == 0:
-            return self(np.broadcast_to(u[:, :, None], shape), np.broadcast_to(v[:, None, :], shape))
-        return self._normalised(self.field.grid(u, v), shape[0] * shape[1] * shape[2])
+        U, V = grid_points(u, v)
+        if not hasattr(self.field, "grid") or U.size == 0:
+            return self(U, V)
+        return self._normalised(self.field.grid(u, v), U.size)
 
     def _normalised(self, res, n):
         """(J, K, H, regular) (n,) of a field's result; J = 0 and not regular where J is not finite."""

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .nurbs import grid_points
 from .quadrature import integrate
 from .trimmed_domain import TrimmedDomain
 
@@ -180,11 +181,7 @@ class ExcludedBoxesField:
 
     def grid(self, u, v):
         """The field on the tensor grids u (n, a) x v (n, b) (FaceField.grid)."""
-        u = np.asarray(u, dtype=float)
-        v = np.asarray(v, dtype=float)
-        shape = (u.shape[0], u.shape[1], v.shape[1])
-        return self._excluded(self.ff.grid(u, v), np.broadcast_to(u[:, :, None], shape).ravel(),
-                              np.broadcast_to(v[:, None, :], shape).ravel())
+        return self._excluded(self.ff.grid(u, v), *grid_points(u, v))
 
     def _excluded(self, f, u, v):
         inside = np.zeros(u.shape, dtype=bool)

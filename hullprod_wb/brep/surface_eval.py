@@ -18,7 +18,7 @@ import numpy as np
 from ..core.errors import InputError
 from . import differential
 from .analytic_surfaces import analytic_from_surface
-from .nurbs import NurbsSurfaceData, _as_points, knot_breaks
+from .nurbs import NurbsSurfaceData, _as_points, grid_points, knot_breaks
 from .plain_records import orientation_sign_of, unwrap_surface  # noqa: F401 (part of this module's API)
 
 
@@ -178,13 +178,9 @@ class SurfaceEvaluator:
         v (n, b): the points (u[c, i], v[c, j]) flat in [c, i, j] order (n a b, 3) each.
         B-spline and Bezier surfaces share each grid's basis functions and poles
         (NurbsSurfaceData.evaluate_grid); other surfaces are evaluated point by point."""
-        u = np.asarray(u, dtype=float)
-        v = np.asarray(v, dtype=float)
         if self.nurbs is not None:
             return self.nurbs.evaluate_grid(u, v, order)
-        shape = (u.shape[0], u.shape[1], v.shape[1])
-        return self._backend.evaluate(np.broadcast_to(u[:, :, None], shape).ravel(),
-                                      np.broadcast_to(v[:, None, :], shape).ravel(), order)
+        return self._backend.evaluate(*grid_points(u, v), order)
 
     def differentials(self, u, v, eps=differential.DEFAULT_DEGENERACY_EPS, scale=None, directions=False):
         """Fundamental forms, oriented normal, H, K, k1 >= k2 at (u, v) (eq:brephk).
