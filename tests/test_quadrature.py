@@ -566,6 +566,72 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
     assert n_lines < sum(lines)
 
 
+def _sign_change_field(a):
+    """K = a (u - g(v)), g = 0.5 + 0.1 sin(2 pi v), J = H = 1 on the unit square: K changes
+    sign inside the single band |K| <= TAU_K, and the closed forms
+    int |K| = 0.255 a, int max(+-K, 0) = 0.1275 a, single area 2 TAU_K / a."""
+    f = field_of(lambda u, v: 1.0, lambda u, v: a * (u - 0.5 - 0.1 * np.sin(2 * np.pi * v)))
+    band = 2.0 * TAU_K / a
+    exact = {"int_abs_K": 0.255 * a, "int_K_plus": 0.1275 * a, "int_K_minus": 0.1275 * a,
+             "A_single": band, "A_elliptic": 0.5 - band / 2, "A_saddle": 0.5 - band / 2}
+    return f, exact
+
+
+def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch):
+    """Where the band |K| <= tau_K is narrow (steep K), the lines are not cut at K = 0: a
+    single piece where K changes sign takes the sign of its K integral and charges the
+    bound tau_K A - |int K J| to the K integrals' error estimates, a small part of the
+    tolerance. The values stay within that bound of the closed form (4e-8 relative here:
+    the band's halves cancel on every line, the worst case); resolving K = 0 (share 0)
+    gives the K integrals' closed form to 1e-10, refining more crossings. Class areas: 1e-9
+    in both."""
+    import hullprod_wb.brep.quadrature as quadrature
+    f, exact = _sign_change_field(10.0)
+    d = TrimmedDomain.rectangle(0, 1, 0, 1)
+    crossings = quadrature._Integrator._crossings
+    found = []  # refined crossings on lines
+
+    def record(self, evalf, x0, x1, refine=True):
+        out = crossings(self, evalf, x0, x1, refine)
+        if refine:
+            found.append(out[0].size)
+        return out
+
+    monkeypatch.setattr(quadrature._Integrator, "_crossings", record)
+    r = integrate(d, f, TAU_H, TAU_K)
+    n_bounded = sum(found)
+    found.clear()
+    assert not r.zero_resolved and r.zero_charge > 0.0
+    assert r.zero_charge <= quadrature.ZERO_CHARGE_SHARE * r.tolerances["int_abs_K"]
+    assert r.all_converged
+    for q in ("int_abs_K", "int_K_plus", "int_K_minus"):
+        # the bound holds: the error of |K| is at most the charge, of K+ and K- half of it
+        part = 1.0 if q == "int_abs_K" else 0.5
+        assert abs(r.values[q] - exact[q]) <= part * r.zero_charge <= r.errors[q], q
+        assert r.values[q] == pytest.approx(exact[q], rel=1e-7), q
+    for q in ("A_single", "A_elliptic", "A_saddle"):
+        assert r.values[q] == pytest.approx(exact[q], abs=1e-9), q
+    monkeypatch.setattr(quadrature, "ZERO_CHARGE_SHARE", 0.0)
+    s = integrate(d, f, TAU_H, TAU_K)
+    assert s.zero_resolved and s.zero_charge == 0.0 and s.all_converged
+    for q, v in exact.items():
+        assert s.values[q] == pytest.approx(v, rel=1e-10, abs=1e-9 if q.startswith("A_") else 0.0), q
+    assert 0 < n_bounded < 0.8 * sum(found)
+
+
+def test_sign_changes_of_K_in_a_wide_band_are_resolved():
+    """Where the bound for K = 0 would not fit the K integrals' tolerance (a wide band
+    |K| <= tau_K: small K), the integration resolves K = 0 instead: the K integrals and
+    class areas converge to the closed form within their error estimates (5e-8 relative,
+    6e-7 absolute here, at rtol 1e-4)."""
+    f, exact = _sign_change_field(0.01)
+    r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, TAU_K)
+    assert r.zero_resolved and r.zero_charge == 0.0 and r.all_converged
+    for q, v in exact.items():
+        assert abs(r.values[q] - v) <= r.errors[q], q
+        assert r.values[q] == pytest.approx(v, rel=1e-7, abs=1e-6 if q.startswith("A_") else 0.0), q
+
+
 def test_mixed_cells_on_interpolants_agree_with_field_lines(monkeypatch):
     """The lines of mixed cells run on a local tensor interpolant of the cell's samples when
     it is accurate enough; forcing the field everywhere (share 0) gives the same integrals

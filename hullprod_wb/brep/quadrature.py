@@ -44,10 +44,15 @@ beside them, and cross the cell's t edges (each crossing a cut, below) far less 
 - on a line sigma = const, the crossings in t of K - tau_K, K + tau_K, H - tau_H, H + tau_H
   and K are bracketed between the samples ZS (and around extrema of one sign that get
   near zero between samples) and refined together; each piece between crossings has one
-  class and one sign of K. On a line of an interpolant (a Legendre series in t, see
-  cell_interpolant.SegmentField) the crossings are refined by safeguarded Newton on the
-  series and J, K J are integrated over each piece exactly (antiderivatives of the series
-  and of their product), so the line adds no error of its own; on a line of the field the
+  class and one sign of K. K = 0 lies inside the band |K| <= tau_K (flat or single
+  pieces), where the K integrals are at most tau_K times the area: it is refined only
+  once the bounds charged instead (a piece's K integral taken with its own sign, error at
+  most tau_K A - |int K J|) would exceed ZERO_CHARGE_SHARE of the K integrals'
+  tolerances (near-developable surfaces), from then on. On a line of an interpolant (a
+  Legendre series in t, see cell_interpolant.SegmentField) the crossings are refined by
+  safeguarded Newton on the series and J, K J are integrated over each piece exactly
+  (antiderivatives of the series and of their product), so the line adds no error of its
+  own beyond those bounds; on a line of the field the
   crossings are refined by solve_bracketed (one field call per step) and J, K J are
   integrated by Gauss-Kronrod 3/7, with the integral of their interpolants at ZS as the
   comparison for the error estimate (on pieces shorter than SHORT_PIECE of the line, the
@@ -118,6 +123,15 @@ DIP_FRACTION = 0.2
 #: and the most steps spent on finding one.
 TANGENT_RTOL = 1e-6
 TANGENT_STEPS = 10
+#: Crossings of K = 0 (a kink of |K|, max(+-K, 0)) lie inside the band |K| <= tau_K, in flat
+#: or single pieces of the lines, where the K integrals are bounded by tau_K times the area.
+#: The lines are not cut there while the bounds charged to the K integrals' error estimates
+#: instead (_Integrator._line_values; a part ZERO_CHARGE_PARTS of the bound to |K|, K+, K-)
+#: stay within ZERO_CHARGE_SHARE of their tolerances; beyond that K = 0 is resolved.
+#: The bound of |K| on a line is at most ZERO_BOUND_SAFETY times its largest sampled |K|.
+ZERO_CHARGE_SHARE = 0.1
+ZERO_CHARGE_PARTS = np.array([1.0, 0.5, 0.5])
+ZERO_BOUND_SAFETY = 2.0
 #: Line pieces are not halved further once halving keeps this much of their error, nor in a
 #: cell that holds this many pieces (the quadtree refines such cells instead).
 STALL_RATIO = 0.45
@@ -154,6 +168,9 @@ class QuadratureResult:
     quantity after each quadtree level (level 0: the patches' own Gauss sums; level d:
     accepted cells plus the Gauss sums of the cells still refined), a list of dicts
     quantity -> float: the refinement sequence of the stability rule (section 5.2).
+    zero_resolved: crossings of K = 0 cut the lines of mixed cells (else the bounds charged
+    instead, zero_charge, within ZERO_CHARGE_SHARE of the K integrals' tolerances, are part
+    of their error estimates; see _Integrator._line_values).
     """
 
     values: dict
@@ -176,6 +193,8 @@ class QuadratureResult:
     seconds: float = 0.0
     recheck: Optional["QuadratureResult"] = None
     history: Optional[list] = None
+    zero_resolved: bool = False
+    zero_charge: float = 0.0
 
     @property
     def all_converged(self):
@@ -197,7 +216,8 @@ class QuadratureResult:
         out = {k: getattr(self, k) for k in ("values", "errors", "tolerances", "converged", "order",
                                              "rtol", "max_depth", "depth_reached", "n_points",
                                              "n_field_calls", "n_cells", "n_initial_cells",
-                                             "n_mixed_cells", "n_nonregular", "seconds")}
+                                             "n_mixed_cells", "n_nonregular", "seconds",
+                                             "zero_resolved", "zero_charge")}
         out["nonregular_uv"] = self.nonregular_uv.tolist()
         out["unconverged_cells"] = self.unconverged_cells.tolist()
         out["peak_KJ"] = self.peak_KJ.tolist()
@@ -435,6 +455,10 @@ class _Integrator:
         self.order, self.rtol = order, rtol
         self.class_max_depth = class_max_depth
         self.lines = True
+        # K = 0 cuts the lines only once the bounds charged instead would not fit
+        # (_line_values, refine_to); zero_charge: the bounds charged in accepted cells
+        self.resolve_zero = False
+        self.zero_charge = 0.0
         self.progress = progress
         self.reference = np.zeros(NQ)  # see integrate(reference=...)
         self.x, self.w = gauss_nodes(order)
@@ -609,7 +633,13 @@ class _Integrator:
                     interp = {k: v[keep] for k, v in interp.items()}
                     lbudget = lbudget[keep]
             if lined.any():
-                val, lerr, _ = self._lines(sub, lbudget, interp)
+                val, lerr, _, charge = self._lines(sub, lbudget, interp)
+                if not self.resolve_zero and np.any((self.zero_charge + charge.sum()) * ZERO_CHARGE_PARTS
+                                                    > ZERO_CHARGE_SHARE * tol[2:N_SMOOTH]):
+                    # the bounds for K = 0 left unresolved would take too much of the K
+                    # integrals' tolerance (small K integrals): resolve it from here on
+                    self.resolve_zero = True
+                    val, lerr, _, charge = self._lines(sub, lbudget, interp)
                 # the quadtree's children sums are an independent check of the K integrals:
                 # a discrepancy beyond the line estimate that the quadtree also sees (its own
                 # estimate) marks a rough or singular integrand the lines did not resolve.
@@ -630,6 +660,8 @@ class _Integrator:
             if accept.any():
                 self.err_acc = self.err_acc + err[accept].sum(0)
                 self.accepted.append({k: v[accept] for k, v in unit.items()})
+                if lined.any():
+                    self.zero_charge += float(charge[accept[lined]].sum())
             self.pending = {k: v[~accept] for k, v in unit.items()} if last else None
             r4 = np.repeat(~accept, 4)
             self.active = {k: v[r4] for k, v in ch.items()}
@@ -771,7 +803,9 @@ class _Integrator:
         together (one field call per step of solve_bracketed). refine=False only counts crossings
         (approximate positions from the samples, no further field calls). Returns segment
         index (k,), level index (k,), x (k,), and the samples: dict of (n, 9) arrays J,
-        KJ (K J; both 0 where not regular), K, H, reg."""
+        KJ (K J; both 0 where not regular), K, H, reg, and zero (n,): K changes sign on the
+        segment by the samples (a sign change, or a dip of K towards zero). Crossings of K = 0
+        (level 4) are refined and returned only while resolve_zero is set (see _line_values)."""
         n = x0.size
         m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
@@ -786,6 +820,8 @@ class _Integrator:
         k_change = change[:, :, :2].any(2) | change[:, :, 4]
         h_ok = near[:, :-1] | near[:, 1:] | k_change
         change[:, :, 2:4] &= h_ok[:, :, None]
+        S["zero"] = change[:, :, 4].any(1)  # K changes sign between samples
+        change[:, :, 4] &= self.resolve_zero
         li, j, q = np.nonzero(change)
         a, b, fa, fb = xs[li, j], xs[li, j + 1], G[li, j, q], G[li, j + 1, q]
 
@@ -809,6 +845,12 @@ class _Integrator:
             vert = (y1 - c2 * x_1 ** 2 - c1 * x_1) - c1 * c1 / (4.0 * c2)
         sg = np.sign(y1)
         cand = np.nonzero(sg * vert < DIP_FRACTION * np.abs(y1))[0]
+        # K dipping towards zero may change sign twice between samples: searched only while
+        # K = 0 is resolved
+        z4 = pq[cand] == 4
+        S["zero"][pi[cand[z4]]] = True
+        if not self.resolve_zero:
+            cand = cand[~z4]
         if cand.size and refine:
             pi, pq, sg = pi[cand], pq[cand], sg[cand]
             lo_, hi_ = x_0[cand], x_2[cand]
@@ -827,7 +869,7 @@ class _Integrator:
             # counts only: regula falsi positions, and the parabola's roots for dips
             with np.errstate(invalid="ignore", divide="ignore"):
                 roots = a + fa / (fa - fb) * (b - a)
-                cross = np.nonzero(sg * vert < 0.0)[0]
+                cross = np.nonzero((sg * vert < 0.0) & (self.resolve_zero | (pq != 4)))[0]
                 half = np.sqrt(np.maximum(-vert[cross] / c2[cross], 0.0))
             li = np.concatenate((li, pi[cross], pi[cross]))
             q = np.concatenate((q, pq[cross], pq[cross]))
@@ -854,9 +896,12 @@ class _Integrator:
         cells cell (L,) (indices into _pc_cells).
 
         Returns dict F (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt, E (L, 7)
-        their error estimates, count (L, 5) crossings of each level, pair (L, 5, 2) the
-        closest two crossings of each level (NaN when fewer than two). The pieces of a line
-        between crossings have the class and the sign of K of their midpoint. On lines of an
+        their error estimates, C (L,) the bound charged to E's |K| column for sign changes
+        of K left unresolved (below; half of it to K+ and K-), count (L, 5) crossings of each
+        level, pair (L, 5, 2) the closest two crossings of each level (NaN when fewer than
+        two). The pieces of a line between crossings have the class and the sign of K of
+        their midpoint; unless resolve_zero is set, K = 0 does not cut the lines, and flat
+        and single pieces take the sign of their K integral instead. On lines of an
         interpolant J and K J are integrated exactly (SegmentField.integrals, no error
         estimate of their own); on lines of the field by Gauss-Kronrod 3/7 on pieces longer
         than SHORT_PIECE of the line (error
@@ -896,7 +941,6 @@ class _Integrator:
         mid[kw] = np.arange(nl + nw) * XK.size + XK.size // 2
         mid[mp] = (nl + nw) * XK.size + np.arange(int(mp.sum()))
         cls = classify(Kc[mid], Hc[mid], self.tau_H, self.tau_K, rc[mid])
-        sk = np.sign(np.where(cls >= 0, Kc[mid], 0.0))
         vals = np.zeros((2, lid.size))
         errs = np.zeros((2, lid.size))
         if poly.any():
@@ -925,12 +969,26 @@ class _Integrator:
                 # short pieces: the interpolant, against the degree-6 one
                 vals[row, sh] = interp[ish]
                 errs[row, sh] = np.abs(interp[ish] - np.einsum("sm,sm->s", w_lo[ish], fz[ish, 1:-1]))
+        sk = np.sign(np.where(cls >= 0, Kc[mid], 0.0))
+        charge = np.zeros(lid.size)
+        if not self.resolve_zero:
+            # K = 0 not resolved: a flat or single piece (|K| <= tau_K on it) takes the sign of
+            # its K integral; on a line where K changes sign, its K integrals' error is at most
+            # B A - |int K J| (|K|) and half that (K+, K-), B the bound of |K| on it (tau_K,
+            # or ZERO_BOUND_SAFETY times the line's largest sampled |K| when less), A its area
+            soft = (cls == 0) | (cls == 1)
+            sk = np.where(soft, np.sign(vals[1]), sk)
+            i = np.nonzero(soft & S["zero"][lid])[0]
+            if i.size:
+                kmax = np.where(S["reg"], np.abs(S["K"]), 0.0).max(1)
+                bound = np.minimum(self.tau_K, ZERO_BOUND_SAFETY * kmax[lid[i]])
+                charge[i] = np.maximum(bound * vals[0, i] - np.abs(vals[1, i]), 0.0)
         # per piece: |K| J, max(K,0) J, max(-K,0) J, then J into its class column
         P = np.zeros((lid.size, N_LINE_Q))
         Pe = np.zeros((lid.size, N_LINE_Q))
-        for col, fac in ((0, sk), (1, np.maximum(sk, 0.0)), (2, np.minimum(sk, 0.0))):
+        for col, fac, c in ((0, sk, 1.0), (1, np.maximum(sk, 0.0), 0.5), (2, np.minimum(sk, 0.0), 0.5)):
             P[:, col] = fac * vals[1]
-            Pe[:, col] = np.abs(fac) * errs[1]
+            Pe[:, col] = np.abs(fac) * errs[1] + c * charge
         ok = cls >= 0
         rows = np.nonzero(ok)[0]
         P[rows, 3 + cls[ok]] = vals[0][ok]
@@ -938,7 +996,7 @@ class _Integrator:
         F, E = np.zeros((L, N_LINE_Q)), np.zeros((L, N_LINE_Q))
         F += _row_sums(lid, P, L)
         E += _row_sums(lid, Pe, L)
-        out = dict(F=F, E=E)
+        out = dict(F=F, E=E, C=np.bincount(lid, weights=charge, minlength=L))
         out.update(_count_and_pairs(li, lq, roots, L))
         return out
 
@@ -958,9 +1016,10 @@ class _Integrator:
         rule instead, with its difference to the midpoint rule as the sigma error, and no
         tangency search: three lines instead of nine.
 
-        Returns values (n, 7), sigma error (_kronrod_error) (n, 7), t error (n, 7), and of
-        the 9 lines: sigma (n, 9), count (n, 9, 5), pair (n, 9, 5, 2) (for slivers count 0 and
-        pair NaN: no tangency cut)."""
+        Returns values (n, 7), sigma error (_kronrod_error) (n, 7), t error (n, 7), its
+        charged part (the lines' C, _line_values) (n,), and of the 9 lines: sigma (n, 9),
+        count (n, 9, 5), pair (n, 9, 5, 2) (for slivers count 0 and pair NaN: no tangency
+        cut)."""
         cells = self._pc_cells
         n, m = pc["sa"].size, XI9.size
         cw = (cells["s1"] - cells["s0"])[pc["cell"]]
@@ -981,18 +1040,21 @@ class _Integrator:
         d = self._line_values(lcell, lpid, lsig, cells["t0"][lcell], cells["t1"][lcell])
         nkl = nk.size * (m - 2)
         Fk, es, et = (np.zeros((n, N_LINE_Q)) for _ in range(3))
+        Fc = np.zeros(n)
         if nk.size:
             wt = (w[nk] * dc[:, 1:-1] * ldu[:nkl].reshape(nk.size, m - 2))[:, :, None]
             F = d["F"][:nkl].reshape(nk.size, m - 2, N_LINE_Q) * wt
             Fk[nk] = np.einsum("nkq,k->nq", F, WK)
             es[nk] = kronrod_error(F, Fk[nk])
             et[nk] = np.einsum("nkq,k->nq", d["E"][:nkl].reshape(nk.size, m - 2, N_LINE_Q) * wt, WK)
+            Fc[nk] = (d["C"][:nkl].reshape(nk.size, m - 2) * wt[:, :, 0]) @ WK
         if ns.size:
             wt = (w[ns] * ldu[nkl:].reshape(ns.size, XI3.size))[:, :, None]
             F = d["F"][nkl:].reshape(ns.size, XI3.size, N_LINE_Q) * wt
             Fk[ns] = 0.5 * (F[:, 0] + F[:, 2])
             es[ns] = np.abs(Fk[ns] - F[:, 1])
             et[ns] = 0.5 * (d["E"][nkl:].reshape(ns.size, XI3.size, N_LINE_Q) * wt)[:, [0, 2]].sum(1)
+            Fc[ns] = 0.5 * (d["C"][nkl:].reshape(ns.size, XI3.size) * wt[:, :, 0])[:, [0, 2]].sum(1)
         count = np.zeros((n, m, N_LEVELS), int)
         pair = np.full((n, m, N_LEVELS, 2), np.nan)
         if nk.size:
@@ -1003,7 +1065,7 @@ class _Integrator:
             count[nk, 0], count[nk, -1] = e["count"][0::2], e["count"][1::2]
             pair[nk, 1:-1] = d["pair"][:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
             pair[nk, 0], pair[nk, -1] = e["pair"][0::2], e["pair"][1::2]
-        return Fk, es, et, sig, count, pair
+        return Fk, es, et, Fc, sig, count, pair
 
     def _edge_cuts(self, cells):
         """sigma (k,) where level curves cross the cells' edges t = t0 and t = t1, and the
@@ -1152,8 +1214,9 @@ class _Integrator:
         return np.where(np.isnan(const), values, const)
 
     def _lines(self, cells, budget, interpolants):
-        """LINE_Q integrals (n, 7), error estimates (n, 7) and fit flags (n,) of mixed cells
-        with error budgets (n, 7).
+        """LINE_Q integrals (n, 7), error estimates (n, 7), fit flags (n,) and the part of
+        the |K| integral's error estimate charged for unresolved sign changes of K (n,)
+        (_line_values) of mixed cells with error budgets (n, 7).
 
         Each cell is cut in sigma at its edge crossings and, as they are found, at
         tangencies of level curves (with a clustered map at those ends, as the square-root
@@ -1167,7 +1230,7 @@ class _Integrator:
         cells, interpolants = self._turn_cells(cells, interpolants)
         self._pc_cells, self._interp = cells, interpolants
         nc = cells["pid"].size
-        out, errs = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q))
+        out, errs, charged = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q)), np.zeros(nc)
         ec, es = self._edge_cuts(cells)
         ar = np.arange(nc)
         cell, sa, sb = _segments(np.concatenate((cells["s0"], es, cells["s1"])),
@@ -1177,7 +1240,7 @@ class _Integrator:
                   sib=np.full(n, -1))
         left = budget - interpolants["err"]
         for level in range(self.class_max_depth + 1):
-            F, e_s, e_t, sig, count, pair = self._piece_values(pc)
+            F, e_s, e_t, e_c, sig, count, pair = self._piece_values(pc)
             last = level == self.class_max_depth
             tp, ts = (np.empty(0, int), None) if last else self._tangent_cuts(pc, sig, count, pair)
             cut = np.zeros(pc["sa"].size, bool)
@@ -1200,13 +1263,14 @@ class _Integrator:
                 fits[c] | give_up[c] | _greedy_accept(err, left.sum(0)) | np.all(e_s <= e_t, 1))
             out += _row_sums(c[done], F[done], nc)
             errs += _row_sums(c[done], err[done], nc)
+            charged += np.bincount(c[done], weights=e_c[done], minlength=nc)
             left -= _row_sums(c[done], err[done], nc)
             halve = ~done & ~cut
             pc = _cat([_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm)])
             if pc["sa"].size == 0:
                 break
         errs += interpolants["err"]
-        return out, errs, np.all(errs <= budget, 1)
+        return out, errs, np.all(errs <= budget, 1), charged
 
     # -- result -------------------------------------------------------------------------------
 
@@ -1234,7 +1298,8 @@ class _Integrator:
             n_initial_cells=self.n_initial, n_mixed_cells=int(units["mixed"].sum()),
             nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
             peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start,
-            history=list(self.history))
+            history=list(self.history), zero_resolved=self.resolve_zero,
+            zero_charge=self.zero_charge)
 
 
 def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
