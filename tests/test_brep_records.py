@@ -281,3 +281,36 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     shape.close()
     r = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
     same_records(r, here)
+
+
+def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tessellates(tmp_path, monkeypatch):
+    """A face assessed alone is set up while the L_ref tessellation runs, and then the field
+    at the nodes of the first two quadtree levels of its patch groups is evaluated
+    (quadrature.NodePrefetch) until L_ref arrives; the integration takes those values over:
+    the same integrals, to the bit, as the file read here."""
+    from hullprod_wb.brep import backend, quadrature
+    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.recorded_shape import RecordedShape
+    Part, _ = _part()
+    path = str(tmp_path / "lone.step")
+    wavy_bspline_face(20, 15).exportStep(path)  # 300 patches: two patch groups
+    here = backend.assess_brep(path, lref=4.0, jobs=2, with_fields=False)
+    steps = []
+    step = quadrature.NodePrefetch.step
+
+    def counted(self):
+        steps.append(len(self.values))
+        return step(self)
+    monkeypatch.setattr(quadrature.NodePrefetch, "step", counted)
+    for polls, levels in (([False] * 5, [0, 0, 1, 1]), ([False, False, False, True], [0, 0])):
+        steps.clear()
+        poll = iter(polls)
+        monkeypatch.setattr(RecordedShape, "lref_ready", lambda self: next(poll, True))
+        r = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
+        assert steps == levels  # both groups' patches, then their children, while "tessellating"
+        assert r.vector == here.vector
+        assert {m: (v.status, v.value) for m, v in r.validity.items()} == \
+            {m: (v.status, v.value) for m, v in here.validity.items()}
+        for qa, qb in zip(r.provenance["quadrature"], here.provenance["quadrature"]):
+            assert qa["values"] == qb["values"] and qa["errors"] == qb["errors"]
+            assert len(qa["parts"]) == 2

@@ -632,6 +632,36 @@ def test_sign_changes_of_K_in_a_wide_band_are_resolved():
         assert r.values[q] == pytest.approx(v, rel=1e-7, abs=1e-6 if q.startswith("A_") else 0.0), q
 
 
+def test_prefetched_first_levels_give_the_same_integrals():
+    """Field values of the first two quadtree levels evaluated before the thresholds are
+    known (NodePrefetch: none, the patches, the patches and their children) are taken over by
+    the integration: the same values and errors to the bit, and the integration itself calls
+    the field only for the levels not prefetched. A prefetch of another order is refused."""
+    from hullprod_wb.brep.quadrature import NodePrefetch
+    calls = []
+
+    def f(u, v):
+        calls.append(u.size)
+        return {"J": 1 + 0.5 * u * v, "K": v - 0.3 - 0.1 * np.sin(2 * np.pi * u), "H": 0.5 + 0 * u,
+                "regular": np.ones(u.shape, bool)}
+    d = TrimmedDomain.disc((0.0, 0.0), 1.0)
+    plain = integrate(d, f, TAU_H, TAU_K)
+    own = []
+    for steps in (0, 1, 2):
+        p = NodePrefetch(d, f, 5)
+        for k in range(steps):
+            assert p.step() == (k == 0)
+        calls.clear()
+        r = integrate(d, f, TAU_H, TAU_K, prefetch=p)
+        own.append(sum(calls))
+        assert r.values == plain.values and r.errors == plain.errors
+        assert r.n_points == plain.n_points  # nothing accepted on its own here: nothing in vain
+    assert own[0] == plain.n_points and own[0] > own[1] > own[2]
+    p = NodePrefetch(d, f, 4)
+    with pytest.raises(InputError, match="prefetched"):
+        integrate(d, f, TAU_H, TAU_K, prefetch=p)
+
+
 def test_mixed_cells_on_interpolants_agree_with_field_lines(monkeypatch):
     """The lines of mixed cells run on a local tensor interpolant of the cell's samples when
     it is accurate enough; forcing the field everywhere (share 0) gives the same integrals

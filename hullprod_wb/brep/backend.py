@@ -33,7 +33,7 @@ from .provenance import shape_boxes, shape_provenance
 from .patches import Patches
 from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
 from .recorded_shape import FaceRecord, RecordedShape
-from .quadrature import GROUPS, QUANTITIES, integrate, patch_area, patch_groups
+from .quadrature import GROUPS, QUANTITIES, NodePrefetch, integrate, patch_area, patch_groups
 from .trimmed_domain import TrimmedDomain
 
 #: Quadrature settings of the paper's campaign (section 5.2); all are options.
@@ -266,6 +266,7 @@ class FaceSetup:
             self.gv = np.unique(np.concatenate([np.asarray(v_breaks, float), qv]))
             self.main_field = singular.ExcludedBoxesField(ff, [q.box for q in self.quads])
         self.check = {}
+        self.prefetch = None
         if area_check:
             self.area_check()
 
@@ -277,6 +278,22 @@ class FaceSetup:
             return cls(face, area_check, part_face=False)
         except _NeedsPartFace:
             return None
+
+    def prefetch_until(self, done, order, groups):
+        """The field at the nodes of the first two quadtree levels of the face's integration,
+        of each of its patch groups when groups (quadrature.NodePrefetch: the field alone, no
+        thresholds), level by level until done() (L_ref has arrived); assess_face uses them."""
+        if done():
+            return
+        patches = Patches.of(self.domain, self.gu, self.gv)
+        ranges = patch_groups(patches.size) if groups else [None]
+        self.prefetch = [NodePrefetch(self.domain, self.main_field, order, self.gu, self.gv, r, patches)
+                         for r in ranges]
+        for _ in range(2):
+            for p in self.prefetch:
+                if done():
+                    return
+                p.step()
 
     def area_check(self):
         """area_rule of the face (independent of the adaptive cubature), once."""
@@ -317,10 +334,11 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     u_breaks, v_breaks, gu, gv, main_field = s.u_breaks, s.v_breaks, s.gu, s.gv, s.main_field
     kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
     groups = patch_groups(Patches.of(domain, gu, gv).size) if groups else [None]
+    prefetch = s.prefetch if s.prefetch is not None and len(s.prefetch) == len(groups) else [None] * len(groups)
 
     def main_part(g):  # progress from the group integrated in this process
         return integrate(domain, main_field, thresholds.tau_H, thresholds.tau_K, u_breaks=gu, v_breaks=gv,
-                         progress=progress if g == 0 else None, patch_range=groups[g], **kw)
+                         progress=progress if g == 0 else None, patch_range=groups[g], prefetch=prefetch[g], **kw)
 
     # the area rule is independent of the adaptive cubature: while other groups finish
     parts = map_forked(main_part, len(groups), group_jobs, while_waiting=s.area_check if cross_checks else None)
@@ -581,6 +599,9 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     # before the tessellation is (the worker processes, forked later, take them over).
     if n_jobs == 1:
         setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces]
+        if recorded:  # and the field at the first quadtree levels, while L_ref is on its way
+            for s in setups:
+                s.prefetch_until(inp.lref_ready, opts["order"], groups=len(inp.faces) == 1)
     else:
         setups = set_up_until(inp.lref_ready if recorded else None, [f for _, f in inp.faces], cost,
                               cross_checks)

@@ -435,6 +435,59 @@ def _share_area_error(err, Q):
     return err
 
 
+def _children(a):
+    """The four children (dict of (4n,) pid, s0, s1, t0, t1) of the cells a, each cell's
+    children consecutive: (low, low), (high, low), (low, high), (high, high) in (sigma, t)."""
+    sm = 0.5 * (a["s0"] + a["s1"])
+    tm = 0.5 * (a["t0"] + a["t1"])
+    return dict(pid=np.repeat(a["pid"], 4),
+                s0=np.stack((a["s0"], sm, a["s0"], sm), 1).ravel(),
+                s1=np.stack((sm, a["s1"], sm, a["s1"]), 1).ravel(),
+                t0=np.stack((a["t0"], a["t0"], tm, tm), 1).ravel(),
+                t1=np.stack((tm, tm, a["t1"], a["t1"]), 1).ravel())
+
+
+class NodePrefetch:
+    """The field at the Gauss nodes of the first two quadtree levels of an integration (the
+    patches, then the four children of each), evaluated before the class thresholds are
+    known (they depend on L_ref, which may still be on its way): integrate(prefetch=...)
+    takes these values instead of evaluating the field there again, so its results are the
+    same to the bit. step() evaluates the next level and tells whether one is left; levels
+    not evaluated are evaluated by the integration as usual. Children of patches that the
+    integration accepts on their own are evaluated in vain: the integration's n_points
+    count the values it takes over (the same count as without a prefetch), and
+    evaluated_points() tells all that were evaluated.
+    Arguments as integrate's; patches: the domain's Patches when already made."""
+
+    def __init__(self, domain, field, order=5, u_breaks=(), v_breaks=(), patch_range=None, patches=None):
+        self.f = _Field(field)
+        self.order = int(order)
+        self.x, _ = gauss_nodes(self.order)
+        self.patches = patches if patches is not None else Patches.of(domain, u_breaks, v_breaks)
+        pid = np.arange(self.patches.size)
+        if patch_range is not None:
+            pid = pid[slice(*patch_range)]
+        z, o = np.zeros(pid.size), np.ones(pid.size)
+        self.cells = [dict(pid=pid, s0=z, s1=o, t0=z, t1=o)]
+        self.cells.append(_children(self.cells[0]))
+        self.values = []  # per level evaluated: J, K, H, regular (n, o, o)
+        self.calls = []  # and the field calls it took
+
+    def evaluated_points(self):
+        """Field points evaluated so far (taken over by an integration or not)."""
+        return self.f.n_points
+
+    def step(self):
+        """Evaluate the next level; whether a level is left after it."""
+        if len(self.values) < len(self.cells):
+            c = self.cells[len(self.values)]
+            U, V = cell_nodes(self.patches, c["pid"], c["s0"], c["s1"], c["t0"], c["t1"], self.x)[:2]
+            before = self.f.n_calls
+            self.values.append(values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c["pid"]), U, V))
+            self.calls.append(self.f.n_calls - before)
+        return len(self.values) < len(self.cells)
+
+
 def _cat(parts):
     """Concatenate a list of dicts of arrays key by key."""
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -447,7 +500,8 @@ class _Integrator:
     the values, or the lines for the LINE_Q quantities of mixed cells."""
 
     def __init__(self, domain, field, tau_H, tau_K, order, rtol, class_max_depth, u_breaks,
-                 v_breaks, progress, patch_range=None):
+                 v_breaks, progress, patch_range=None, prefetch=None):
+        self.prefetch = prefetch
         self.f = _Field(field)
         self.tau_H, self.tau_K = tau_H, tau_K
         # constants the level functions subtract from their field row (LEVEL_ROW)
@@ -464,13 +518,15 @@ class _Integrator:
         self.x, self.w = gauss_nodes(order)
         self.w_embedded = embedded_weights(self.x)
         self._grid_inverse, self._parent_vander = grid_matrices(self.x)
-        self.patches = Patches.of(domain, u_breaks, v_breaks)
+        self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
         pid = np.arange(self.patches.size)
         if patch_range is not None:
             pid = pid[slice(*patch_range)]
             if pid.size == 0:
                 raise InputError("patch range %r holds none of the domain's %d patches"
                                  % (tuple(patch_range), self.patches.size))
+        if prefetch is not None and (prefetch.order != order or not np.array_equal(prefetch.cells[0]["pid"], pid)):
+            raise InputError("the prefetched nodes are of another order or patch range")
         P = pid.size
         self.n_initial = P
         self.nonregular = []
@@ -481,7 +537,9 @@ class _Integrator:
         self.pending = None  # units left unaccepted at the last level
         z, o = np.zeros(P), np.ones(P)
         self.active = dict(pid=pid, s0=z, s1=o, t0=z, t1=o)
-        self.active.update(self._eval_cells(self.active))
+        self.active.update(self._eval_cells(self.active, self._prefetched(0)))
+        if prefetch is not None:
+            self.active["row"] = np.arange(P)  # the patch of each active cell (_prefetched)
         self.history = []
         self._record_level()
 
@@ -507,8 +565,25 @@ class _Integrator:
         out += [Jv * (cls == c) for c in range(4)]
         return np.stack(out, -1), cls
 
-    def _eval_cells(self, c):
-        """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1).
+    def _prefetched(self, level, rows=None):
+        """J, K, H, regular (n, o, o) at the nodes of quadtree level 0 (the patches) or 1 (the
+        children of the patches rows (m,), n = 4 m) from the NodePrefetch, None when it has
+        not evaluated that level."""
+        p = self.prefetch
+        if p is None or len(p.values) <= level or (level > 0 and rows is None):
+            return None
+        vals = p.values[level]
+        if level > 0:
+            idx = (4 * rows[:, None] + np.arange(4)).ravel()
+            vals = tuple(v[idx] for v in vals)
+        # counted as if evaluated here: n_points are the points the integration uses
+        self.f.n_points += vals[0].size
+        self.f.n_calls += p.calls[level]
+        return vals
+
+    def _eval_cells(self, c, nodes=None):
+        """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1), with the
+        field's values at its nodes when given (J, K, H, regular (n, o, o); else evaluated).
 
         Returns dict Q (n, 9), mixed (n,) bool, peak (n, 3) (u, v, |K| J at the sample of
         largest |K| J), err_e (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights), pmeas (n,)
@@ -518,7 +593,8 @@ class _Integrator:
         pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
         nc = pid.size
         U, V, du, lo, hi = cell_nodes(self.patches, pid, s0, s1, t0, t1, x)
-        J, K, H, reg = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, pid), U, V)
+        J, K, H, reg = nodes if nodes is not None else values_at_nodes(
+            self.f, self.f.grid, tensor_cells(self.patches, pid), U, V)
         W = ((s1 - s0) * (t1 - t0))[:, None, None] * (w[:, None] * w[None, :])[None] \
             * (du * (hi - lo))[:, :, None]
         f, cls = self._integrands(J, K, H, reg)
@@ -585,14 +661,8 @@ class _Integrator:
             na = a["pid"].size
             if na == 0:
                 break
-            sm = 0.5 * (a["s0"] + a["s1"])
-            tm = 0.5 * (a["t0"] + a["t1"])
-            ch = dict(pid=np.repeat(a["pid"], 4),
-                      s0=np.stack((a["s0"], sm, a["s0"], sm), 1).ravel(),
-                      s1=np.stack((sm, a["s1"], sm, a["s1"]), 1).ravel(),
-                      t0=np.stack((a["t0"], a["t0"], tm, tm), 1).ravel(),
-                      t1=np.stack((tm, tm, a["t1"], a["t1"]), 1).ravel())
-            ch.update(self._eval_cells(ch))
+            ch = _children(a)
+            ch.update(self._eval_cells(ch, self._prefetched(1, a.get("row"))))
             self.depth += 1
             last = self.depth >= depth_limit
             unit = {k: a[k] for k in ("pid", "s0", "s1", "t0", "t1")}
@@ -1401,7 +1471,7 @@ def patch_groups(n_patches, min_patches=None):
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
               v_breaks=(), progress=None, recheck=True, class_max_depth=3, reference=None,
-              lines=True, patch_range=None):
+              lines=True, patch_range=None, prefetch=None):
     """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
 
     domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
@@ -1418,7 +1488,9 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     mixed cells on lines (False: Gauss sums throughout, the quadtree's own error estimates;
     class areas then converge only like the cell size, for callers that need the area and
     K integrals only); patch_range: (start, stop) of the domain's patches to integrate
-    (default all; see patch_groups), with tolerances relative to their own integrals.
+    (default all; see patch_groups), with tolerances relative to their own integrals;
+    prefetch: a NodePrefetch of the same domain, field, order, breaks and patch range, whose
+    values are used where it has them.
     Returns a QuadratureResult.
     """
     if not isinstance(domain, TrimmedDomain):
@@ -1431,7 +1503,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
                          ">= 0, got %r, %r, %r" % (order, max_depth, class_max_depth))
     start = time.perf_counter()
     it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
-                     u_breaks, v_breaks, progress, patch_range)
+                     u_breaks, v_breaks, progress, patch_range, prefetch)
     it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
     it.lines = bool(lines)
     it.refine_to(int(max_depth))
