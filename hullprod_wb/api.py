@@ -15,6 +15,8 @@ def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
         return describe_file(source)["representation"]
+    if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.plain_records)
+        return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
         return "mesh"
     tname = type(source).__name__

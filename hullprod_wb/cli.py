@@ -3,7 +3,6 @@
 Exit status 0 on success whatever the validity, 2 with a one-line reason for bad input.
 With --json only the JSON document goes to stdout; progress and warnings go to stderr.
 """
-import argparse
 import importlib
 import os
 import sys
@@ -57,6 +56,50 @@ def add_common_options(p):
                         "values do not depend on it)")
 
 
+#: analyze's options that take a value (the others are flags), for early_reading's scan.
+VALUE_OPTIONS = ("--lref", "--hf", "--kf", "--backend", "--faces", "--order", "--rtol", "--max-depth",
+                 "--jobs", "--out")
+BREP_SUFFIXES = (".igs", ".iges", ".step", ".stp", ".brep")
+
+
+def early_reading(argv):
+    """For `analyze FILE` of a BRep file that api.assess would read in a separate process
+    (brep.plain_records.ReadInChild): that process, started at once, so that it reads while
+    the argument parser and the backend load here; None for anything else, as far as a
+    plain scan of argv tells (short options, abbreviations, a second positional: None).
+    run_analyze takes it over when the parsed arguments ask for the same reading, and
+    stops it otherwise."""
+    if not argv or argv[0] != "analyze":
+        return None
+    opts, positional = {}, []
+    it = iter(argv[1:])
+    for a in it:
+        if a == "--":
+            positional.extend(it)
+        elif a.startswith("--"):
+            name, eq, value = a.partition("=")
+            opts[name] = (value if eq else next(it, None)) if name in VALUE_OPTIONS else True
+        elif a.startswith("-") and a != "-":
+            return None
+        else:
+            positional.append(a)
+    if len(positional) != 1 or "--help" in opts or opts.get("--backend") == "mesh":
+        return None
+    path = positional[0]
+    if not path.lower().endswith(BREP_SUFFIXES) or not os.path.isfile(path):
+        return None
+    from .brep.face_pool import fork_is_safe, resolve_jobs
+    try:
+        faces = parse_faces(opts.get("--faces"))
+        jobs = None if opts.get("--jobs") is None else int(opts["--jobs"])
+    except (InputError, TypeError, ValueError):
+        return None
+    if "FreeCAD" in sys.modules or not fork_is_safe() or resolve_jobs(jobs, 2) <= 1:
+        return None
+    from .brep.plain_records import ReadInChild
+    return ReadInChild(path, faces, with_fields="--no-fields" not in opts or "--out" in opts)
+
+
 def quadrature_options(args):
     return {k: v for k, v in (("order", args.order), ("rtol", args.rtol), ("max_depth", args.max_depth),
                               ("jobs", getattr(args, "jobs", None))) if v is not None}
@@ -64,6 +107,7 @@ def quadrature_options(args):
 
 def build_parser(command=None):
     """The argument parser; plugin commands other than command are listed without options."""
+    import argparse
     parser = argparse.ArgumentParser(prog="hullprod", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
@@ -113,9 +157,17 @@ def report(result, args, paths=None):
 def run_analyze(args):
     from .api import assess
     progress = null_progress if args.quiet else StderrProgress()
-    result = assess(args.input, lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
-                    faces=parse_faces(args.faces), with_fields=not args.no_fields or bool(args.out),
-                    progress=progress, **quadrature_options(args))
+    faces, with_fields = parse_faces(args.faces), not args.no_fields or bool(args.out)
+    source, early = args.input, getattr(args, "early_reading", None)
+    if early is not None:
+        from .brep.face_pool import resolve_jobs
+        if (early.path, early.faces, early.with_fields) == (args.input, faces, with_fields) \
+                and args.backend in (None, "brep") and resolve_jobs(args.jobs, 2) > 1:
+            source = early  # the reading process started by main (early_reading)
+        else:
+            early.close()
+    result = assess(source, lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
+                    faces=faces, with_fields=with_fields, progress=progress, **quadrature_options(args))
     if args.report and not args.out:
         raise InputError("--report writes DIR/report.html: give --out DIR")
     paths = result.save(args.out, overwrite=args.overwrite) if args.out else None
@@ -145,9 +197,11 @@ def run_example(args):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
-    parser = build_parser(next((a for a in argv if not a.startswith("-")), None))
-    args = parser.parse_args(argv)
+    early = early_reading(argv)
     try:
+        parser = build_parser(next((a for a in argv if not a.startswith("-")), None))
+        args = parser.parse_args(argv)
+        args.early_reading = early
         return args.func(args)
     except InputError as exc:
         sys.stderr.write("hullprod: error: %s\n" % " ".join(str(exc).split()))
@@ -161,6 +215,9 @@ def main(argv=None):
         sys.stderr.write("hullprod: internal error: %s: %s (set HULLPROD_DEBUG=1 for the traceback)\n"
                          % (type(exc).__name__, " ".join(str(exc).split())))
         return 1
+    finally:
+        if early is not None:  # taken over and done with, or not wanted
+            early.close()
 
 
 def exit_now(code):

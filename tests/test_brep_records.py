@@ -314,3 +314,48 @@ def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tesse
         for qa, qb in zip(r.provenance["quadrature"], here.provenance["quadrature"]):
             assert qa["values"] == qb["values"] and qa["errors"] == qb["errors"]
             assert len(qa["parts"]) == 2
+
+
+def test_the_command_starts_the_reading_process_before_parsing_its_arguments(tmp_path, monkeypatch, capsys):
+    """`analyze FILE` of a BRep file starts its reading process before the argument parser and
+    the backend load (cli.early_reading, from a plain scan of the arguments), and the
+    assessment takes that process over when the parsed arguments ask for the same reading;
+    otherwise (here an abbreviated --no-fields the scan does not know) it is stopped and the
+    file read by a process of its own: the same numbers either way."""
+    import json
+    from hullprod_wb import cli
+    path = str(tmp_path / "wavy.step")
+    wavy_bspline_face().exportStep(path)
+    (tmp_path / "hull.stl").write_text("solid x\nendsolid x\n")
+    # as in the command, where FreeCAD is never loaded (this test process has it loaded)
+    monkeypatch.delitem(sys.modules, "FreeCAD")
+    for argv, expected in (([path, "--json"], (None, True)), ([path, "--no-fields"], (None, False)),
+                           ([path, "--no-fields", "--out", str(tmp_path / "o")], (None, True)),
+                           (["--faces=1", path, "--jobs", "2"], ([1], True))):
+        r = cli.early_reading(["analyze"] + argv)
+        assert r is not None and (r.faces, r.with_fields, r.path) == expected + (path,)
+        r.close()
+    for argv in (["analyze", path, "-h"], ["analyze", str(tmp_path / "hull.stl")], ["example"],
+                 ["analyze", path, "--backend", "mesh"], ["analyze", path, "--jobs", "1"],
+                 ["analyze", str(tmp_path / "missing.step")], ["analyze", path, path]):
+        assert cli.early_reading(argv) is None, argv
+
+    monkeypatch.undo()
+    # the command in a fresh process (FreeCAD not loaded), counting the reading processes
+    driver = ("import sys; from hullprod_wb import cli; from hullprod_wb.brep import plain_records as p\n"
+              "init = p.ReadInChild.__init__\n"
+              "def counted(self, *a, **k):\n"
+              "    sys.stderr.write('reading process for %s\\n' % a[0]); init(self, *a, **k)\n"
+              "p.ReadInChild.__init__ = counted\n"
+              "sys.exit(cli.main(sys.argv[1:]))\n")
+    values = []
+    for flag, readers in (("--no-fields", 1), ("--no-field", 2)):
+        r = subprocess.run([sys.executable, "-P", "-c", driver, "analyze", path, "--lref", "4", "--json",
+                            "--quiet", flag], capture_output=True, text=True, timeout=300,
+                           env=dict(os.environ, PYTHONPATH=ROOT))
+        assert r.returncode == 0, r.stderr[-2000:]
+        doc = json.loads(r.stdout)
+        assert doc["provenance"]["reading"].startswith("OpenCascade in a separate process")
+        assert r.stderr.count("reading process for %s" % path) == readers, r.stderr
+        values.append(doc["signature"])
+    assert values[0] == values[1]

@@ -289,6 +289,7 @@ class ReadInChild:
 
     def __init__(self, path, faces=None, with_fields=True, display_deflection=None):
         self.path, self.faces = path, faces
+        self.with_fields, self.display_deflection = with_fields, display_deflection
         self._frames, self._fh, self._pid = [], None, None
         r, w = os.pipe()
         pid = os.fork()
