@@ -302,7 +302,9 @@ def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tesse
         steps.append(len(self.values))
         return step(self)
     monkeypatch.setattr(quadrature.NodePrefetch, "step", counted)
-    for polls, levels in (([False] * 5, [0, 0, 1, 1]), ([False, False, False, True], [0, 0])):
+    # two groups of 150 patches: each group's patches in one step, their 600 children in
+    # three (quadrature.PREFETCH_CELLS)
+    for polls, levels in (([False] * 20, [0, 0, 1, 1, 1, 1, 1, 1]), ([False, False, False, True], [0, 0])):
         steps.clear()
         poll = iter(polls)
         monkeypatch.setattr(RecordedShape, "lref_ready", lambda self: next(poll, True))

@@ -632,7 +632,7 @@ def test_sign_changes_of_K_in_a_wide_band_are_resolved():
         assert r.values[q] == pytest.approx(v, rel=1e-7, abs=1e-6 if q.startswith("A_") else 0.0), q
 
 
-def test_prefetched_first_levels_give_the_same_integrals():
+def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     """Field values of the first two quadtree levels evaluated before the thresholds are
     known (NodePrefetch: none, the patches, the patches and their children) are taken over by
     the integration: the same values and errors to the bit, and the integration itself calls
@@ -647,10 +647,13 @@ def test_prefetched_first_levels_give_the_same_integrals():
     d = TrimmedDomain.disc((0.0, 0.0), 1.0)
     plain = integrate(d, f, TAU_H, TAU_K)
     own = []
-    for steps in (0, 1, 2):
+    import hullprod_wb.brep.quadrature as quadrature
+    monkeypatch.setattr(quadrature, "PREFETCH_CELLS", 3)  # the patch, then its 4 children in 2 steps
+    for levels, steps in ((0, 0), (1, 1), (2, 3)):
         p = NodePrefetch(d, f, 5)
         for k in range(steps):
-            assert p.step() == (k == 0)
+            assert p.step() == (k < 2)
+        assert len(p.values) == levels
         calls.clear()
         r = integrate(d, f, TAU_H, TAU_K, prefetch=p)
         own.append(sum(calls))

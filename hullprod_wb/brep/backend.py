@@ -289,11 +289,12 @@ class FaceSetup:
         ranges = patch_groups(patches.size) if groups else [None]
         self.prefetch = [NodePrefetch(self.domain, self.main_field, order, self.gu, self.gv, r, patches)
                          for r in ranges]
-        for _ in range(2):
+        for level in range(2):  # the groups' patches, then their children
             for p in self.prefetch:
-                if done():
-                    return
-                p.step()
+                while len(p.values) <= level:
+                    if done():
+                        return
+                    p.step()
 
     def area_check(self):
         """area_rule of the face (independent of the adaptive cubature), once."""

@@ -144,6 +144,8 @@ INTERPOLANT_SHARE = 0.1
 #: faces are), which processes can share (see patch_groups).
 GROUPS = 2
 GROUP_MIN_PATCHES = 256
+#: Cells a step of NodePrefetch evaluates (a few milliseconds).
+PREFETCH_CELLS = 256
 #: Number of candidate cells of largest |K| J kept for the singular-point audit.
 N_PEAKS = 10
 #: At most this many non-regular sample locations are kept.
@@ -452,8 +454,8 @@ class NodePrefetch:
     patches, then the four children of each), evaluated before the class thresholds are
     known (they depend on L_ref, which may still be on its way): integrate(prefetch=...)
     takes these values instead of evaluating the field there again, so its results are the
-    same to the bit. step() evaluates the next level and tells whether one is left; levels
-    not evaluated are evaluated by the integration as usual. Children of patches that the
+    same to the bit. step() evaluates the next PREFETCH_CELLS cells and tells whether any are
+    left; levels not completed are evaluated by the integration as usual. Children of patches that the
     integration accepts on their own are evaluated in vain: the integration's n_points
     count the values it takes over (the same count as without a prefetch), and
     evaluated_points() tells all that were evaluated.
@@ -472,19 +474,29 @@ class NodePrefetch:
         self.cells.append(_children(self.cells[0]))
         self.values = []  # per level evaluated: J, K, H, regular (n, o, o)
         self.calls = []  # and the field calls it took
+        self._chunks = []  # the level being evaluated, by PREFETCH_CELLS cells
 
     def evaluated_points(self):
         """Field points evaluated so far (taken over by an integration or not)."""
         return self.f.n_points
 
     def step(self):
-        """Evaluate the next level; whether a level is left after it."""
-        if len(self.values) < len(self.cells):
-            c = self.cells[len(self.values)]
-            U, V = cell_nodes(self.patches, c["pid"], c["s0"], c["s1"], c["t0"], c["t1"], self.x)[:2]
+        """Evaluate the next PREFETCH_CELLS cells (a step stays short: it is not interrupted
+        when the thresholds arrive); whether anything is left after it."""
+        level = len(self.values)
+        if level < len(self.cells):
+            c = self.cells[level]
+            a = len(self._chunks) * PREFETCH_CELLS
+            k = slice(a, min(a + PREFETCH_CELLS, c["pid"].size))
+            U, V = cell_nodes(self.patches, c["pid"][k], c["s0"][k], c["s1"][k], c["t0"][k], c["t1"][k],
+                              self.x)[:2]
             before = self.f.n_calls
-            self.values.append(values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c["pid"]), U, V))
-            self.calls.append(self.f.n_calls - before)
+            self._chunks.append((values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c["pid"][k]),
+                                                 U, V), self.f.n_calls - before))
+            if k.stop == c["pid"].size:  # the level is complete
+                self.values.append(tuple(np.concatenate(v) for v in zip(*(ch[0] for ch in self._chunks))))
+                self.calls.append(sum(ch[1] for ch in self._chunks))
+                self._chunks = []
         return len(self.values) < len(self.cells)
 
 
