@@ -321,25 +321,31 @@ class SegmentField:
 
     def window_min(self, row, offset, sign, x0, x1):
         """Least value (k,) over [x0, x1] (k,) of sign (series row - offset) (all (k,)) on every
-        segment (all using the interpolant): the least of WINDOW_SAMPLES equally spaced
-        values, polished by WINDOW_STEPS Newton steps on the derivative kept in the window."""
+        segment (all using the interpolant): window_min_of its power series."""
         k = np.arange(self.power.shape[0])
-        C = self.power[k, row] * sign[:, None]
-        C[:, 0] -= sign * offset
-        za, zb = self.local(x0, k), self.local(x1, k)
-        lo, hi = np.minimum(za, zb), np.maximum(za, zb)
-        Z = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, WINDOW_SAMPLES)[None, :]
-        F = horner(C, Z)
-        j = np.argmin(F, 1)
-        z, best = Z[k, j], F[k, j]
-        for _ in range(WINDOW_STEPS):
-            f, d1, d2 = horner2(C, z)
-            better = f < best
-            best = np.where(better, f, best)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                zn = np.clip(z - d1 / d2, lo, hi)
-            z = np.where((d2 > 0.0) & np.isfinite(zn), zn, z)
-        return np.minimum(best, horner(C, z))
+        return window_min_of(self.power[k, row], offset, sign, self.local(x0, k), self.local(x1, k))
+
+
+def window_min_of(series, offset, sign, za, zb):
+    """Least value (k,) of sign (series - offset) over [za, zb] (all (k,)) for power series
+    (k, d + 1) in the local coordinate z: the least of WINDOW_SAMPLES equally spaced values,
+    polished by WINDOW_STEPS Newton steps on the derivative kept in the window."""
+    k = np.arange(series.shape[0])
+    C = series * sign[:, None]
+    C[:, 0] -= sign * offset
+    lo, hi = np.minimum(za, zb), np.maximum(za, zb)
+    Z = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, WINDOW_SAMPLES)[None, :]
+    F = horner(C, Z)
+    j = np.argmin(F, 1)
+    z, best = Z[k, j], F[k, j]
+    for _ in range(WINDOW_STEPS):
+        f, d1, d2 = horner2(C, z)
+        better = f < best
+        best = np.where(better, f, best)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zn = np.clip(z - d1 / d2, lo, hi)
+        z = np.where((d2 > 0.0) & np.isfinite(zn), zn, z)
+    return np.minimum(best, horner(C, z))
 
 
 #: Newton steps for a tangency point of a level curve of a cell's interpolant, and the

@@ -76,8 +76,8 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.integrals import SurfaceIntegrals
 from ..core.thresholds import check_positive, classify
-from .cell_interpolant import (SegmentField, cell_values, fit_interpolants, grid_matrices,
-                               tangency_points)
+from .cell_interpolant import (SegmentField, _local, cell_values, fit_interpolants, grid_matrices,
+                               tangency_points, window_min_of)
 from .gauss_rules import (WK, XK, embedded_weights, gauss_nodes, kronrod_error, legendre_vander,
                           piece_weights)
 from .nurbs import grid_points
@@ -1078,7 +1078,7 @@ class _Integrator:
         F, E = np.zeros((L, N_LINE_Q)), np.zeros((L, N_LINE_Q))
         F += _row_sums(lid, P, L)
         E += _row_sums(lid, Pe, L)
-        out = dict(F=F, E=E, C=np.bincount(lid, weights=charge, minlength=L))
+        out = dict(F=F, E=E, C=np.bincount(lid, weights=charge, minlength=L), power=evalf.power)
         out.update(_count_and_pairs(li, lq, roots, L))
         return out
 
@@ -1087,7 +1087,7 @@ class _Integrator:
         only (see _crossings with refine=False)."""
         evalf, _ = self._segments_t(cell, pid, sig)
         li, lq, roots, _ = self._crossings(evalf, t0, t1, refine=False)
-        return _count_and_pairs(li, lq, roots, pid.size)
+        return dict(_count_and_pairs(li, lq, roots, pid.size), power=evalf.power)
 
     def _piece_values(self, pc):
         """Gauss-Kronrod 3/7 in sigma over pieces pc (dict of (n,) cell, sa, sb, kind) of the
@@ -1101,7 +1101,8 @@ class _Integrator:
         Returns values (n, 7), sigma error (_kronrod_error) (n, 7), t error (n, 7), its
         charged part (the lines' C, _line_values) (n,), and of the 9 lines: sigma (n, 9),
         count (n, 9, 5), pair (n, 9, 5, 2) (for slivers count 0 and pair NaN: no tangency
-        cut)."""
+        cut), and the power series in t of the lines on interpolants (SegmentField.power)
+        (n, 9, 3, d + 1)."""
         cells = self._pc_cells
         n, m = pc["sa"].size, XI9.size
         cw = (cells["s1"] - cells["s0"])[pc["cell"]]
@@ -1139,6 +1140,7 @@ class _Integrator:
             Fc[ns] = 0.5 * (d["C"][nkl:].reshape(ns.size, XI3.size) * wt[:, :, 0])[:, [0, 2]].sum(1)
         count = np.zeros((n, m, N_LEVELS), int)
         pair = np.full((n, m, N_LEVELS, 2), np.nan)
+        series = np.zeros((n, m) + d["power"].shape[1:])  # of the lines on interpolants
         if nk.size:
             ends = sig[nk][:, [0, -1]].ravel()
             ec = np.repeat(pc["cell"][nk], 2)
@@ -1147,7 +1149,9 @@ class _Integrator:
             count[nk, 0], count[nk, -1] = e["count"][0::2], e["count"][1::2]
             pair[nk, 1:-1] = d["pair"][:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
             pair[nk, 0], pair[nk, -1] = e["pair"][0::2], e["pair"][1::2]
-        return Fk, es, et, Fc, sig, count, pair
+            series[nk, 1:-1] = d["power"][:nkl].reshape((nk.size, m - 2) + series.shape[2:])
+            series[nk, 0], series[nk, -1] = e["power"][0::2], e["power"][1::2]
+        return Fk, es, et, Fc, sig, count, pair, series
 
     def _edge_cuts(self, cells):
         """sigma (k,) where level curves cross the cells' edges t = t0 and t = t1, and the
@@ -1169,7 +1173,7 @@ class _Integrator:
         li, _, roots, _ = self._crossings(evalf, cells["s0"][E], cells["s1"][E])
         return E[li], roots
 
-    def _tangent_cuts(self, pc, sig, count, pair):
+    def _tangent_cuts(self, pc, sig, count, pair, series):
         """sigma (k,) and piece (k,) where a level curve is tangent to the lines sigma =
         const, between neighbouring lines of a piece whose crossing counts differ.
 
@@ -1207,15 +1211,21 @@ class _Integrator:
         use = self._interp["use"][cell]
         row, offset = LEVEL_ROW[q], self.level_offset[q]
 
-        def phi(sg, i):
+        def phi(sg, i, line=None):
             """min over the window of sign * g_q on the lines sg: on an interpolant's line
-            from its series in t (SegmentField.window_min), else by parabolic steps."""
+            from its series in t (the piece's line line when given, else made here), else
+            by parabolic steps."""
             out = np.empty(i.size)
             k = np.nonzero(use[i])[0]
             if k.size:
                 ik = i[k]
-                seg = SegmentField(self._interp["C"], self._interp["use"], cells, cell[ik], sg[k], "t", None)
-                out[k] = seg.window_min(row[ik], offset[ik], sign[ik], w0[ik], w1[ik])
+                if line is None:
+                    seg = SegmentField(self._interp["C"], self._interp["use"], cells, cell[ik], sg[k], "t", None)
+                    out[k] = seg.window_min(row[ik], offset[ik], sign[ik], w0[ik], w1[ik])
+                else:
+                    c0, c1 = cells["t0"][cell[ik]], cells["t1"][cell[ik]]
+                    out[k] = window_min_of(series[p[ik], line[k], row[ik]], offset[ik], sign[ik],
+                                           _local(w0[ik], c0, c1), _local(w1[ik], c0, c1))
             k = np.nonzero(~use[i])[0]
             if k.size:
                 ik, sk = i[k], sg[k]
@@ -1225,9 +1235,10 @@ class _Integrator:
                                         f3.reshape(-1, 3))[1]
             return out
 
-        so = sig[p, np.where(more == j, j + 1, j)]
+        other = np.where(more == j, j + 1, j)
+        so = sig[p, other]
         ar = np.arange(p.size)
-        fm, fo = phi(sm, ar), phi(so, ar)
+        fm, fo = phi(sm, ar, more), phi(so, ar, other)
         ok = (fm < 0.0) & (fo > 0.0)
         if not ok.any():
             return p[:0], np.empty(0)
@@ -1322,9 +1333,9 @@ class _Integrator:
                   sib=np.full(n, -1))
         left = budget - interpolants["err"]
         for level in range(self.class_max_depth + 1):
-            F, e_s, e_t, e_c, sig, count, pair = self._piece_values(pc)
+            F, e_s, e_t, e_c, sig, count, pair, series = self._piece_values(pc)
             last = level == self.class_max_depth
-            tp, ts = (np.empty(0, int), None) if last else self._tangent_cuts(pc, sig, count, pair)
+            tp, ts = (np.empty(0, int), None) if last else self._tangent_cuts(pc, sig, count, pair, series)
             cut = np.zeros(pc["sa"].size, bool)
             cut[tp] = True
             c = pc["cell"]
