@@ -267,7 +267,6 @@ class SegmentField:
         act = np.nonzero((fa != 0.0) & (fb != 0.0))[0]
         # the open brackets' state, compacted as brackets close
         cd, zi, l, h = CD[:, act].reshape(-1, d), z[act], lo[act], hi[act]
-        last = np.full(act.size, np.nan)  # the previous Newton step (NaN: none)
         with np.errstate(divide="ignore", invalid="ignore"):
             for _ in range(NEWTON_STEPS):
                 if act.size == 0:
@@ -282,18 +281,13 @@ class SegmentField:
                 zn = zi - step
                 small = np.abs(step) <= ztol  # converged (the step may round onto a bracket end)
                 inside = np.isfinite(zn) & ((zn - l) * (zn - h) < 0.0)
-                # after a Newton step inside the bracket, the next one would be about
-                # |step|^2 |step / last^2| (quadratic convergence, its constant from the last
-                # two steps; where convergence is only linear the estimate stays large)
-                small |= inside & (np.abs(step) ** 3 <= ztol * last * last)
                 zn = np.where(inside | small, zn, 0.5 * (l + h))
-                last = np.where(inside, step, np.nan)
                 done = small | (f == 0.0) | (np.abs(h - l) <= ztol)
                 zi = np.where(f == 0.0, zi, zn)
                 if done.any():
                     z[act[done]] = zi[done]
                     keep = ~done
-                    act, zi, l, h, last = act[keep], zi[keep], l[keep], h[keep], last[keep]
+                    act, zi, l, h = act[keep], zi[keep], l[keep], h[keep]
                     cd = cd[np.concatenate((keep, keep))]
         z[act] = zi
         return self.x0[seg] + 0.5 * (z + 1.0) * (self.x1[seg] - self.x0[seg])
