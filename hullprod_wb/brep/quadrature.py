@@ -1493,7 +1493,7 @@ def patch_groups(n_patches, min_patches=None):
 
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
-              v_breaks=(), progress=None, recheck=True, class_max_depth=3, reference=None,
+              v_breaks=(), progress=None, recheck=True, class_max_depth=2, reference=None,
               lines=True, patch_range=None, prefetch=None):
     """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
 
