@@ -11,7 +11,9 @@ CPU times. Each command runs --repeat times (default 3; the reference only while
 runs takes under REPEAT_LIMIT seconds, else once), the two tools in turn (ours, the
 reference, ours, ...) so that both meet the same state of the machine, and the medians are
 compared: on a shared machine single runs of a fraction of a second move by 10 % and more,
-and the machine's speed drifts by tens of percent within minutes.
+and the machine's speed drifts by tens of percent within minutes. The package is
+byte-compiled first, so that no run compiles modules (where Python does not write its
+caches, every run would compile the modules changed since the last compilation).
 
     /usr/bin/python3 bench/brep_hulls.py [--reference] [--repeat N] [--venv DIR] [--hulls DIR]
 """
@@ -148,6 +150,9 @@ def main():
     if not files:
         sys.exit("no BRep hulls found in %s" % args.hulls)
     exe = ensure_reference_venv(args.venv) if args.reference else None
+    # byte-compiled first: where Python does not write its caches (PYTHONDONTWRITEBYTECODE,
+    # a read-only checkout) every run would otherwise compile the modules changed since
+    subprocess.run([sys.executable, "-m", "compileall", "-q", os.path.join(ROOT, "hullprod_wb")], check=True)
     s_ours = startup([os.path.join(ROOT, "hullprod")])
     s_ref = startup([exe]) if exe else None
     print("start-up (best of 3 --help): HullProd for FreeCAD %.2f s%s" % (

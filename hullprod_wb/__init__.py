@@ -10,8 +10,16 @@ Python use (inside FreeCAD, FreeCADCmd or /usr/bin/python3 with FreeCAD's module
 """
 __version__ = "0.1.0"
 
-from .api import assess  # noqa: E402,F401
 from .core.errors import InputError  # noqa: E402,F401
+
+
+def __getattr__(name):
+    """hullprod_wb.assess, imported on first use (the command line starts a file's reading
+    process before it loads the API)."""
+    if name == "assess":
+        from .api import assess
+        return assess
+    raise AttributeError("module 'hullprod_wb' has no attribute %r" % name)
 
 
 def make_analysis(source, faces=None, lref=None, doc=None, **options):
