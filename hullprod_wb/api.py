@@ -4,7 +4,6 @@ The two numerical realizations are never converted into each other: a BRep is in
 natively, a triangle mesh through discrete curvature (paper section 4).
 """
 import os
-import sys
 
 from .core.constants import DEFAULT_HF, DEFAULT_KF
 from .core.errors import InputError
@@ -53,16 +52,18 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         from .mesh.backend import assess_mesh
         return assess_mesh(source, lref=lref, h_f=h_f, k_f=k_f, with_fields=with_fields,
                            progress=progress)
-    from .brep.face_pool import fork_is_safe, resolve_jobs
     # with one process asked for (jobs=1, a batch worker's HULLPROD_JOBS=1) everything runs
     # here: a process that loads FreeCAD once for many files reads them itself
-    if isinstance(source, (str, os.PathLike)) and fork_is_safe() and resolve_jobs(options.get("jobs"), 2) > 1:
-        if "FreeCAD" not in sys.modules:
+    if isinstance(source, (str, os.PathLike)):
+        from .brep.face_pool import fork_is_safe, resolve_jobs
+        from .brep.plain_records import ReadInChild, reads_in_child
+        if reads_in_child(options.get("jobs")):
             # a child reads the file and sends its plain records while this process loads
             # numpy and the backend (brep.plain_records); FreeCAD is never loaded here
-            from .brep.plain_records import ReadInChild
             source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
-        else:  # read the file and start its L_ref tessellation beside the loading of the backend
+        elif fork_is_safe() and resolve_jobs(options.get("jobs"), 2) > 1:
+            # FreeCAD is loaded here: read the file and start its L_ref tessellation beside
+            # the loading of the backend
             from .brep.lref_samples import read_and_start
             source = read_and_start(source, faces)
     try:

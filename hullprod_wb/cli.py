@@ -10,6 +10,7 @@ import time
 
 from .core.constants import DEFAULT_HF, DEFAULT_KF
 from .core.errors import InputError
+from .core.inputs import BREP_FORMATS
 from .core.progress import StderrProgress, null_progress
 
 #: Modules that add further subcommands (each has add_parser(subparsers)); absent ones are skipped.
@@ -59,7 +60,6 @@ def add_common_options(p):
 #: analyze's options that take a value (the others are flags), for early_reading's scan.
 VALUE_OPTIONS = ("--lref", "--hf", "--kf", "--backend", "--faces", "--order", "--rtol", "--max-depth",
                  "--jobs", "--out")
-BREP_SUFFIXES = (".igs", ".iges", ".step", ".stp", ".brep")
 
 
 def early_reading(argv):
@@ -86,17 +86,16 @@ def early_reading(argv):
     if len(positional) != 1 or "--help" in opts or opts.get("--backend") == "mesh":
         return None
     path = positional[0]
-    if not path.lower().endswith(BREP_SUFFIXES) or not os.path.isfile(path):
+    if os.path.splitext(path)[1].lower() not in BREP_FORMATS or not os.path.isfile(path):
         return None
-    from .brep.face_pool import fork_is_safe, resolve_jobs
+    from .brep.plain_records import ReadInChild, reads_in_child
     try:
         faces = parse_faces(opts.get("--faces"))
         jobs = None if opts.get("--jobs") is None else int(opts["--jobs"])
     except (InputError, TypeError, ValueError):
         return None
-    if "FreeCAD" in sys.modules or not fork_is_safe() or resolve_jobs(jobs, 2) <= 1:
+    if not reads_in_child(jobs):
         return None
-    from .brep.plain_records import ReadInChild
     return ReadInChild(path, faces, with_fields="--no-fields" not in opts or "--out" in opts)
 
 
@@ -160,9 +159,9 @@ def run_analyze(args):
     faces, with_fields = parse_faces(args.faces), not args.no_fields or bool(args.out)
     source, early = args.input, getattr(args, "early_reading", None)
     if early is not None:
-        from .brep.face_pool import resolve_jobs
+        from .brep.plain_records import reads_in_child
         if (early.path, early.faces, early.with_fields) == (args.input, faces, with_fields) \
-                and args.backend in (None, "brep") and resolve_jobs(args.jobs, 2) > 1:
+                and args.backend in (None, "brep") and reads_in_child(args.jobs):
             source = early  # the reading process started by main (early_reading)
         else:
             early.close()

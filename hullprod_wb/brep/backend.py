@@ -5,6 +5,7 @@ fundamental forms (eq:brephk), adaptive boundary-fitted Gauss-Legendre cubature 
 trimmed domain (eq:brep_surface_integral), graded refinement and a nested-neighbourhood
 audit at degenerate points, and per-metric validity (section 4.3).
 """
+import functools
 import time
 from dataclasses import dataclass
 from dataclasses import field as dc_field
@@ -285,9 +286,8 @@ class FaceSetup:
         thresholds), level by level until done() (L_ref has arrived); assess_face uses them."""
         if done():
             return
-        patches = Patches.of(self.domain, self.gu, self.gv)
-        ranges = patch_groups(patches.size) if groups else [None]
-        self.prefetch = [NodePrefetch(self.domain, self.main_field, order, self.gu, self.gv, r, patches)
+        ranges = patch_groups(self.patches.size) if groups else [None]
+        self.prefetch = [NodePrefetch(self.domain, self.main_field, order, self.gu, self.gv, r, self.patches)
                          for r in ranges]
         for level in range(2):  # the groups' patches, then their children
             for p in self.prefetch:
@@ -295,6 +295,11 @@ class FaceSetup:
                     if done():
                         return
                     p.step()
+
+    @functools.cached_property
+    def patches(self):
+        """The boundary-fitted patches of the face's integration (Patches.of domain, gu, gv)."""
+        return Patches.of(self.domain, self.gu, self.gv)
 
     def area_check(self):
         """area_rule of the face (independent of the adaptive cubature), once."""
@@ -334,7 +339,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     ff, domain, deg, quads = s.ff, s.domain, s.deg, s.quads
     u_breaks, v_breaks, gu, gv, main_field = s.u_breaks, s.v_breaks, s.gu, s.gv, s.main_field
     kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
-    groups = patch_groups(Patches.of(domain, gu, gv).size) if groups else [None]
+    groups = patch_groups(s.patches.size) if groups else [None]
     prefetch = s.prefetch if s.prefetch is not None and len(s.prefetch) == len(groups) else [None] * len(groups)
 
     def main_part(g):  # progress from the group integrated in this process
@@ -598,11 +603,14 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     # records (numpy alone: nothing here can crash in the geometry kernel, whose crashes the
     # worker processes isolate), smallest first, as many set-ups and area rules as are done
     # before the tessellation is (the worker processes, forked later, take them over).
+    # a face assessed alone is integrated in patch groups, which share the CPUs instead of
+    # faces (several faces: the faces do)
+    groups = len(inp.faces) == 1
     if n_jobs == 1:
         setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces]
         if recorded:  # and the field at the first quadtree levels, while L_ref is on its way
             for s in setups:
-                s.prefetch_until(inp.lref_ready, opts["order"], groups=len(inp.faces) == 1)
+                s.prefetch_until(inp.lref_ready, opts["order"], groups)
     else:
         setups = set_up_until(inp.lref_ready if recorded else None, [f for _, f in inp.faces], cost,
                               cross_checks)
@@ -644,9 +652,6 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     # progress weights: OpenCascade's face areas where known, else the faces' patch counts
     areas = np.maximum(np.array(cost if occ_areas is None else occ_areas, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
-    # a face assessed alone is integrated in patch groups, which share the CPUs instead of
-    # faces (several faces: the faces do)
-    groups = len(inp.faces) == 1
     group_jobs = resolve_jobs(jobs, GROUPS) if groups else 1
     done = [0.0, 0]  # weight and number of the faces finished
 

@@ -14,9 +14,9 @@ cross-check points and the edges' vertices) and the file's description; the node
 automatic-L_ref tessellation; then, at the lowest priority, what is only needed at the end
 (provenance with OpenCascade's face areas, the display tessellation). The records come
 first, so that the parent sets the faces up while the tessellation runs (ReadInChild.ready
-tells it whether the next frame is there). A shape with a face this module does not describe (another
-surface type, a planar face, a p-curve of another type or none) is reported as unsupported,
-and the parent reads the file itself.
+tells it whether the next frame is there). A shape with a face this module does not
+describe (another surface type, a planar face, a p-curve of another type or none) is
+reported as unsupported, and the parent reads the file itself.
 
 Nothing here imports numpy: the reading side never loads it.
 """
@@ -24,6 +24,7 @@ import os
 import pickle
 import select
 import struct
+import sys
 import time
 from array import array
 
@@ -276,6 +277,16 @@ def display_mesh(face, deflection):
     for q in face.getUVNodes():
         uv.extend((float(q[0]), float(q[1])))
     return p, t, uv
+
+
+def reads_in_child(jobs=None):
+    """Whether a BRep file named by its path is read by a ReadInChild in this process
+    (api.assess; cli.early_reading starts it earlier): forking is safe here
+    (face_pool.fork_is_safe), more than one process is allowed (jobs, $HULLPROD_JOBS:
+    face_pool.resolve_jobs), and FreeCAD is not loaded here (a process that has it reads
+    files itself)."""
+    from .face_pool import fork_is_safe, resolve_jobs
+    return "FreeCAD" not in sys.modules and fork_is_safe() and resolve_jobs(jobs, 2) > 1
 
 
 class ReadInChild:

@@ -437,6 +437,19 @@ def _share_area_error(err, Q):
     return err
 
 
+def _patch_cells(patches, patch_range=None):
+    """The quadtree's first cells (dict of (n,) pid, s0, s1, t0, t1): the whole of each patch
+    of patch_range (start, stop) (default all), InputError when it holds none."""
+    pid = np.arange(patches.size)
+    if patch_range is not None:
+        pid = pid[slice(*patch_range)]
+        if pid.size == 0:
+            raise InputError("patch range %r holds none of the domain's %d patches"
+                             % (tuple(patch_range), patches.size))
+    z, o = np.zeros(pid.size), np.ones(pid.size)
+    return dict(pid=pid, s0=z, s1=o, t0=z, t1=o)
+
+
 def _children(a):
     """The four children (dict of (4n,) pid, s0, s1, t0, t1) of the cells a, each cell's
     children consecutive: (low, low), (high, low), (low, high), (high, high) in (sigma, t)."""
@@ -455,30 +468,21 @@ class NodePrefetch:
     known (they depend on L_ref, which may still be on its way): integrate(prefetch=...)
     takes these values instead of evaluating the field there again, so its results are the
     same to the bit. step() evaluates the next PREFETCH_CELLS cells and tells whether any are
-    left; levels not completed are evaluated by the integration as usual. Children of patches that the
-    integration accepts on their own are evaluated in vain: the integration's n_points
-    count the values it takes over (the same count as without a prefetch), and
-    evaluated_points() tells all that were evaluated.
-    Arguments as integrate's; patches: the domain's Patches when already made."""
+    left; levels not completed are evaluated by the integration as usual. Children of
+    patches that the integration accepts on their own are evaluated in vain; the
+    integration's n_points count the values it takes over (the same count as without a
+    prefetch). Arguments as integrate's; patches: the domain's Patches when already made."""
 
     def __init__(self, domain, field, order=5, u_breaks=(), v_breaks=(), patch_range=None, patches=None):
         self.f = _Field(field)
         self.order = int(order)
         self.x, _ = gauss_nodes(self.order)
         self.patches = patches if patches is not None else Patches.of(domain, u_breaks, v_breaks)
-        pid = np.arange(self.patches.size)
-        if patch_range is not None:
-            pid = pid[slice(*patch_range)]
-        z, o = np.zeros(pid.size), np.ones(pid.size)
-        self.cells = [dict(pid=pid, s0=z, s1=o, t0=z, t1=o)]
+        self.cells = [_patch_cells(self.patches, patch_range)]
         self.cells.append(_children(self.cells[0]))
         self.values = []  # per level evaluated: J, K, H, regular (n, o, o)
         self.calls = []  # and the field calls it took
         self._chunks = []  # the level being evaluated, by PREFETCH_CELLS cells
-
-    def evaluated_points(self):
-        """Field points evaluated so far (taken over by an integration or not)."""
-        return self.f.n_points
 
     def step(self):
         """Evaluate the next PREFETCH_CELLS cells (a step stays short: it is not interrupted
@@ -531,12 +535,8 @@ class _Integrator:
         self.w_embedded = embedded_weights(self.x)
         self._grid_inverse, self._parent_vander = grid_matrices(self.x)
         self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
-        pid = np.arange(self.patches.size)
-        if patch_range is not None:
-            pid = pid[slice(*patch_range)]
-            if pid.size == 0:
-                raise InputError("patch range %r holds none of the domain's %d patches"
-                                 % (tuple(patch_range), self.patches.size))
+        self.active = _patch_cells(self.patches, patch_range)
+        pid = self.active["pid"]
         if prefetch is not None and (prefetch.order != order or not np.array_equal(prefetch.cells[0]["pid"], pid)):
             raise InputError("the prefetched nodes are of another order or patch range")
         P = pid.size
@@ -547,8 +547,6 @@ class _Integrator:
         self.err_acc = np.zeros(NQ)
         self.depth = 0
         self.pending = None  # units left unaccepted at the last level
-        z, o = np.zeros(P), np.ones(P)
-        self.active = dict(pid=pid, s0=z, s1=o, t0=z, t1=o)
         self.active.update(self._eval_cells(self.active, self._prefetched(0)))
         if prefetch is not None:
             self.active["row"] = np.arange(P)  # the patch of each active cell (_prefetched)

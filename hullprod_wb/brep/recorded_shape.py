@@ -2,10 +2,10 @@
 
 RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput: faces
 (with OpenCascade's cross-check values), description, bounding-box size, the automatic-L_ref
-nodes, and (late) the provenance, with OpenCascade's face areas, and the display tessellation. Its
-faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part faces would, built
-from the same numbers; a face whose trimmed domain needs OpenCascade itself (a p-curve
-whose conversion fails its check) is read again here (part_face).
+nodes, and (late) the provenance, with OpenCascade's face areas, and the display
+tessellation. Its faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part
+faces would, built from the same numbers; a face whose trimmed domain needs OpenCascade
+itself (a p-curve whose conversion fails its check) is read again here (part_face).
 """
 from .face_field import FaceField
 from .surface_eval import SurfaceEvaluator
@@ -13,8 +13,9 @@ from .trimmed_domain import TrimmedDomain
 
 
 class FaceRecord:
-    """One face of a RecordedShape: number, surface_type, patch_count, occ_reference (OpenCascade's values at the cross-check points), and field(), domain()
-    (None when it needs the Part face: part_face())."""
+    """One face of a RecordedShape: number, surface_type, patch_count, occ_reference
+    (OpenCascade's values at the cross-check points), and field(), domain() (None when it
+    needs the Part face: part_face())."""
 
     def __init__(self, rec, path):
         self.rec, self.path = rec, path
