@@ -1066,9 +1066,9 @@ class _Integrator:
         # per piece: |K| J, max(K,0) J, max(-K,0) J, then J into its class column
         P = np.zeros((lid.size, N_LINE_Q))
         Pe = np.zeros((lid.size, N_LINE_Q))
-        for col, fac, c in ((0, sk, 1.0), (1, np.maximum(sk, 0.0), 0.5), (2, np.minimum(sk, 0.0), 0.5)):
+        for col, fac in ((0, sk), (1, np.maximum(sk, 0.0)), (2, np.minimum(sk, 0.0))):
             P[:, col] = fac * vals[1]
-            Pe[:, col] = np.abs(fac) * errs[1] + c * charge
+            Pe[:, col] = np.abs(fac) * errs[1] + ZERO_CHARGE_PARTS[col] * charge
         ok = cls >= 0
         rows = np.nonzero(ok)[0]
         P[rows, 3 + cls[ok]] = vals[0][ok]
