@@ -220,12 +220,12 @@ def main(argv=None):
 
 
 def exit_now(code):
-    """End the command with exit status code. Where FreeCAD is loaded: flush the output, run
-    the atexit functions and leave without the interpreter's teardown of the FreeCAD and
-    OpenCascade libraries (about 0.13 s of every command); else a normal exit."""
+    """End the command with exit status code: run the atexit functions, flush the output and
+    leave without the interpreter's teardown (which frees every module and object one by
+    one: about 30 ms with numpy and the numerical modules loaded, about 0.13 s where FreeCAD
+    and OpenCascade are). The command's files are closed when written (result.save,
+    batch.table flushes every row); no thread of its own outlives main()."""
     code = 0 if code is None else int(code)
-    if "FreeCAD" not in sys.modules:
-        sys.exit(code)
     import atexit
     try:
         atexit._run_exitfuncs()

@@ -141,8 +141,8 @@ def test_automatic_lref_independent_of_fields_and_cached_tessellations():
 
 
 def test_command_output_complete_after_its_fast_exit(tmp_path):
-    """The command leaves without the interpreter's teardown of FreeCAD (cli.exit_now): what
-    it printed and wrote is complete, and the exit status is kept."""
+    """The command leaves without the interpreter's teardown (cli.exit_now): what it printed
+    and wrote is complete, and the exit status is kept, for a BRep and a mesh."""
     import json
     from hullprod_wb.examples.builtin import half_wigley_shape
     step = str(tmp_path / "wigley.step")
@@ -158,3 +158,13 @@ def test_command_output_complete_after_its_fast_exit(tmp_path):
     assert (out / "fields.vtp").read_text().rstrip().endswith("</VTKFile>")
     p = run_cli("analyze", step, "--lref", "0")
     assert p.returncode == 2 and "L_ref" in p.stderr
+    from hullprod_wb.examples.analytic_meshes import half_wigley_mesh
+    stl = str(tmp_path / "wigley.stl")
+    import trimesh
+    trimesh.Trimesh(*half_wigley_mesh(40, 10), process=False).export(stl)
+    mesh_out = tmp_path / "mesh_out"
+    p = run_cli("analyze", stl, "--quiet", "--lref", "1", "--out", str(mesh_out))
+    assert p.returncode == 0, p.stderr
+    assert json.loads((mesh_out / "signature.json").read_text())["signature"]["I_D"] > 0
+    assert (mesh_out / "fields.vtp").read_text().rstrip().endswith("</VTKFile>")
+    assert "I_D" in p.stdout
