@@ -70,11 +70,91 @@ def _check(name, a, n=None):
     return a
 
 
+def _components(a):
+    """The x, y, z rows (3, n) of an (n, 3) array, contiguous: the arithmetic below then
+    runs on contiguous arrays, one pass per operation, instead of strided columns."""
+    return np.ascontiguousarray(a.T)
+
+
 def jacobian(su, sv):
     """Area element J = |S_u x S_v| (eq:brep_jacobian), (n,) float from two (n, 3) arrays."""
-    su, sv = _check("Su", su), _check("Sv", sv)
-    c = _cross(su, sv)
-    return np.sqrt(_dot(c, c))
+    (ux, uy, uz), (vx, vy, vz) = _components(_check("Su", su)), _components(_check("Sv", sv))
+    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    return np.sqrt(cx * cx + cy * cy + cz * cz)
+
+
+class CurvatureFields(NamedTuple):
+    """What the cubature needs at n points: J, K, H (n,) and regular (n,) bool, with the
+    first and second fundamental forms and the oriented unit normal's components (3, n)
+    (NaN where not regular) that they come from."""
+
+    E: np.ndarray
+    F: np.ndarray
+    G: np.ndarray
+    D: np.ndarray
+    J: np.ndarray
+    normal_xyz: np.ndarray
+    e: np.ndarray
+    f: np.ndarray
+    g: np.ndarray
+    H: np.ndarray
+    K: np.ndarray
+    regular: np.ndarray
+
+
+def _derivative_arrays(derivatives):
+    """(Su, Sv, Suu, Suv, Svv), each checked (n, 3), of derivatives with or without S."""
+    if len(derivatives) == 6:
+        derivatives = derivatives[1:]
+    if len(derivatives) != 5:
+        raise InputError("expected (S, Su, Sv, Suu, Suv, Svv) or (Su, Sv, Suu, Suv, Svv), got %d arrays"
+                         % len(derivatives))
+    su = _check("Su", derivatives[0])
+    n = su.shape[0]
+    return (su,) + tuple(_check(name, a, n) for name, a in zip(("Sv", "Suu", "Suv", "Svv"), derivatives[1:]))
+
+
+def curvature_fields(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS, scale=None):
+    """Fundamental forms, J, H, K and regularity at n points (the module doc's formulas),
+    computed on the x, y, z components; derivatives, orientation_sign, eps and scale as for
+    surface_differentials, which adds the normal as (n, 3) vectors and the principal
+    curvatures. Returns a CurvatureFields."""
+    if orientation_sign not in (1, -1):
+        raise InputError("orientation_sign must be +1 or -1, got %r" % (orientation_sign,))
+    su, sv, suu, suv, svv = (_components(a) for a in _derivative_arrays(derivatives))
+    n = su.shape[1]
+    (ux, uy, uz), (vx, vy, vz) = su, sv
+    E = ux * ux + uy * uy + uz * uz
+    F = ux * vx + uy * vy + uz * vz
+    G = vx * vx + vy * vy + vz * vz
+    c = np.empty((3, n))
+    np.subtract(uy * vz, uz * vy, out=c[0])
+    np.subtract(uz * vx, ux * vz, out=c[1])
+    np.subtract(ux * vy, uy * vx, out=c[2])
+    D = c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
+    J = np.sqrt(D)
+    ref = np.maximum(E, G) if scale is None else np.broadcast_to(np.asarray(scale, dtype=float), (n,))
+    with np.errstate(invalid="ignore"):
+        regular = (J > eps * ref) & np.isfinite(J) & np.isfinite(E) & np.isfinite(G)
+        regular &= np.isfinite(suu).all(axis=0) & np.isfinite(suv).all(axis=0) & np.isfinite(svv).all(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv_j = np.where(regular, float(orientation_sign) / np.where(regular, J, 1.0), np.nan)
+        normal = c * inv_j
+        nx, ny, nz = normal
+        e = nx * suu[0] + ny * suu[1] + nz * suu[2]
+        f = nx * suv[0] + ny * suv[1] + nz * suv[2]
+        g = nx * svv[0] + ny * svv[1] + nz * svv[2]
+        inv_d = np.where(regular, 1.0 / np.where(regular, D, 1.0), np.nan)
+        H = (e * G - 2.0 * f * F + g * E) * (0.5 * inv_d)
+        K = (e * g - f * f) * inv_d
+    return CurvatureFields(E, F, G, D, J, normal, e, f, g, H, K, regular)
+
+
+def principal_curvatures(H, K):
+    """k1 >= k2 = H +- sqrt(max(H^2 - K, 0))."""
+    with np.errstate(invalid="ignore"):
+        disc = np.sqrt(np.maximum(H * H - K, 0.0))
+    return H + disc, H - disc
 
 
 def surface_differentials(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS, scale=None,
@@ -88,38 +168,15 @@ def surface_differentials(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERAC
     directions: also return the principal directions (unit (n, 3) vectors in 3-D).
     Returns a SurfaceDifferentials.
     """
-    if len(derivatives) == 6:
-        derivatives = derivatives[1:]
-    if len(derivatives) != 5:
-        raise InputError("expected (S, Su, Sv, Suu, Suv, Svv) or (Su, Sv, Suu, Suv, Svv), got %d arrays"
-                         % len(derivatives))
-    su = _check("Su", derivatives[0])
-    n = su.shape[0]
-    sv, suu, suv, svv = (_check(name, a, n) for name, a in zip(("Sv", "Suu", "Suv", "Svv"), derivatives[1:]))
-    if orientation_sign not in (1, -1):
-        raise InputError("orientation_sign must be +1 or -1, got %r" % (orientation_sign,))
-
-    E, F, G = _dot(su, su), _dot(su, sv), _dot(sv, sv)
-    c = _cross(su, sv)
-    D = _dot(c, c)
-    J = np.sqrt(D)
-    ref = np.maximum(E, G) if scale is None else np.broadcast_to(np.asarray(scale, dtype=float), (n,))
-    with np.errstate(invalid="ignore"):
-        regular = (J > eps * ref) & np.isfinite(J) & np.isfinite(E) & np.isfinite(G)
-        regular &= np.isfinite(suu).all(axis=1) & np.isfinite(suv).all(axis=1) & np.isfinite(svv).all(axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv_j = np.where(regular, float(orientation_sign) / np.where(regular, J, 1.0), np.nan)
-        normal = c * inv_j[:, None]
-        e, f, g = _dot(normal, suu), _dot(normal, suv), _dot(normal, svv)
-        inv_d = np.where(regular, 1.0 / np.where(regular, D, 1.0), np.nan)
-        H = (e * G - 2.0 * f * F + g * E) * (0.5 * inv_d)
-        K = (e * g - f * f) * inv_d
-        disc = np.sqrt(np.maximum(H * H - K, 0.0))
-    k1, k2 = H + disc, H - disc
+    c = curvature_fields(derivatives, orientation_sign, eps, scale)
+    normal = c.normal_xyz.T
+    k1, k2 = principal_curvatures(c.H, c.K)
     dir1 = dir2 = None
     if directions:
-        dir1, dir2 = _principal_directions(su, sv, normal, E, F, G, e, f, g, k1, k2)
-    return SurfaceDifferentials(E, F, G, D, J, normal, e, f, g, H, K, k1, k2, regular, dir1, dir2)
+        su, sv = _derivative_arrays(derivatives)[:2]
+        dir1, dir2 = _principal_directions(su, sv, normal, c.E, c.F, c.G, c.e, c.f, c.g, k1, k2)
+    return SurfaceDifferentials(c.E, c.F, c.G, c.D, c.J, normal, c.e, c.f, c.g, c.H, c.K, k1, k2,
+                                c.regular, dir1, dir2)
 
 
 def _principal_directions(su, sv, normal, E, F, G, e, f, g, k1, k2):

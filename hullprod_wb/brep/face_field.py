@@ -2,7 +2,7 @@
 eq:brep_jacobian), evaluated in batches from the exact surface derivatives."""
 import numpy as np
 
-from .differential import jacobian, surface_differentials
+from .differential import curvature_fields, jacobian, principal_curvatures
 from .surface_eval import SurfaceEvaluator
 
 
@@ -31,15 +31,19 @@ class FaceField:
     def grid(self, u, v):
         """The field on the tensor grids u (n, a) x v (n, b) (SurfaceEvaluator.grid_derivatives),
         flat in [c, i, j] order: the same dict as field(U.ravel(), V.ravel()) of the broadcast
-        grids."""
+        grids, without k1 and k2."""
         der = self.evaluator.grid_derivatives(u, v)
         self.points_evaluated += der[0].shape[0]
-        return self._fields(der)
+        return self._fields(der, principal=False)
 
-    def _fields(self, der):
-        d = surface_differentials(der, orientation_sign=self.sign)
-        return {"J": d.J, "K": d.K, "H": d.H, "k1": d.k1, "k2": d.k2, "regular": d.regular,
-                "points": der[0]}
+    def _fields(self, der, principal=True):
+        """dict(J, K, H, regular, points) and, with principal, k1 >= k2 (the cubature's
+        grids go without)."""
+        d = curvature_fields(der, orientation_sign=self.sign)
+        out = {"J": d.J, "K": d.K, "H": d.H, "regular": d.regular, "points": der[0]}
+        if principal:
+            out["k1"], out["k2"] = principal_curvatures(d.H, d.K)
+        return out
 
     def area_element(self, u, v):
         """J = |S_u x S_v| alone (eq:brep_jacobian), from first derivatives only, as a field
