@@ -29,7 +29,7 @@ from .plain_records import nurbs_record
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
-#: Grids evaluated per block by evaluate_grid; bounds its products (block x 6 a b x 4 floats).
+#: Grids evaluated per block by evaluate_grid; bounds its products (block x 9 a b x 4 floats).
 GRID_CHUNK = 1024
 
 
@@ -373,13 +373,17 @@ class NurbsSurfaceData:
         bv = basis_derivatives(self.vknots, q, np.repeat(sv, b), v.ravel(), order)  # (L, q+1, m b)
         nv = self.poles.shape[1]
         offs = np.arange(p + 1)[:, None] * nv + np.arange(q + 1)[None, :]
-        ctrl = self._pw_t.T[offs[None] + ((su - p) * nv + (sv - q))[:, None, None]]  # (m, p+1, q+1, dim)
-        # T[c, l, x, j] = sum_y d^l N_y(v_cj) Pw[c, x, y]: (m, L, p+1, b, dim)
-        T = np.matmul(bv.reshape(L, q + 1, m, b).transpose(2, 0, 3, 1)[:, :, None], ctrl[:, None])
-        # d^k/du^k d^l/dv^l Sw[c, i, j] = sum_x d^k N_x(u_ci) T[c, l, x, j]: (m, a, b dim) each
-        bu = bu.reshape(L, p + 1, m, a).transpose(0, 2, 3, 1)  # (L, m, a, p+1)
+        ctrl = self._pw_t.T[offs.T[None] + ((su - p) * nv + (sv - q))[:, None, None]]  # (m, q+1, p+1, dim)
+        # one product per grid in each direction: T[c, (l, j), (x, d)] = sum_y d^l N_y(v_cj)
+        # Pw[c, x, y, d], then S[c, (k, i), (l, j, d)] = sum_x d^k N_x(u_ci) T[c, l, j, x, d],
+        # every pair of derivative orders at once
+        bv = bv.reshape(L, q + 1, m, b).transpose(2, 0, 3, 1).reshape(m, L * b, q + 1)
+        T = np.matmul(bv, ctrl.reshape(m, q + 1, (p + 1) * dim))
+        T = T.reshape(m, L, b, p + 1, dim).transpose(0, 3, 1, 2, 4).reshape(m, p + 1, L * b * dim)
+        bu = bu.reshape(L, p + 1, m, a).transpose(2, 0, 3, 1).reshape(m, L * a, p + 1)
+        S = np.matmul(bu, T).reshape(m, L, a, L, b, dim)
         pairs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))[:(1, 3, 6)[order]]
-        hom = [np.matmul(bu[k], T[:, l].reshape(m, p + 1, b * dim)).reshape(m * a * b, dim) for k, l in pairs]
+        hom = [S[:, k, :, l].reshape(m * a * b, dim) for k, l in pairs]
         if self.weights is None:
             return hom
         return [h.T for h in rational_quotient([h.T for h in hom])]
