@@ -367,6 +367,34 @@ def test_differentials_of_synthetic_paraboloid():
     assert not bad.regular.any() and np.all(np.isnan(bad.K))
 
 
+def test_curvature_fields_on_components_match_the_formulas():
+    """differential.curvature_fields (x, y, z rows) gives the module's formulas written with
+    (n, 3) dot and cross products, NaN curvatures at non-regular points (a vanishing S_v, a
+    NaN second derivative), and surface_differentials the same J, H, K with k1 >= k2."""
+    rng = np.random.default_rng(11)
+    n = 500
+    su, sv, suu, suv, svv = (rng.standard_normal((n, 3)) for _ in range(5))
+    sv[:3] = 0.0
+    suu[5, 1] = np.nan
+    c = differential.curvature_fields((su, sv, suu, suv, svv), orientation_sign=-1)
+    cross = np.cross(su, sv)
+    J = np.linalg.norm(cross, axis=1)
+    E, F, G = (np.sum(a * b, 1) for a, b in ((su, su), (su, sv), (sv, sv)))
+    reg = (J > 1e-10 * np.maximum(E, G)) & np.isfinite(suu).all(1)
+    assert np.array_equal(c.regular, reg) and not reg[:3].any() and not reg[5]
+    nrm = -cross / J[:, None]
+    e, f, g = (np.sum(nrm * a, 1) for a in (suu, suv, svv))
+    D = E * G - F * F
+    np.testing.assert_allclose(c.J, J, rtol=1e-13)
+    np.testing.assert_allclose(c.normal_xyz.T[reg], nrm[reg], rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(c.K[reg], ((e * g - f * f) / D)[reg], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(c.H[reg], ((e * G - 2 * f * F + g * E) / (2 * D))[reg], rtol=1e-9, atol=1e-12)
+    assert np.all(np.isnan(c.K[~reg])) and np.all(np.isnan(c.H[~reg]))
+    d = differential.surface_differentials((su, sv, suu, suv, svv), orientation_sign=-1)
+    assert np.array_equal(d.K, c.K, equal_nan=True) and np.array_equal(d.H, c.H, equal_nan=True)
+    assert np.all(d.k1[reg] >= d.k2[reg]) and np.allclose((d.k1 * d.k2)[reg], c.K[reg], rtol=1e-8, atol=1e-12)
+
+
 def test_nurbs_data_pure_numpy_against_finite_differences():
     """Derivatives of an array-built rational surface against central differences."""
     rng = np.random.default_rng(11)
