@@ -382,9 +382,9 @@ def test_curvature_fields_on_components_match_the_formulas():
     E, F, G = (np.sum(a * b, 1) for a, b in ((su, su), (su, sv), (sv, sv)))
     reg = (J > 1e-10 * np.maximum(E, G)) & np.isfinite(suu).all(1)
     assert np.array_equal(c.regular, reg) and not reg[:3].any() and not reg[5]
-    nrm = -cross / J[:, None]
+    nrm = -cross / np.where(reg, J, 1.0)[:, None]
     e, f, g = (np.sum(nrm * a, 1) for a in (suu, suv, svv))
-    D = E * G - F * F
+    D = np.where(reg, E * G - F * F, 1.0)
     np.testing.assert_allclose(c.J, J, rtol=1e-13)
     np.testing.assert_allclose(c.normal_xyz.T[reg], nrm[reg], rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(c.K[reg], ((e * g - f * f) / D)[reg], rtol=1e-9, atol=1e-12)
