@@ -466,8 +466,8 @@ class NodePrefetch:
     """The field at the Gauss nodes of the first two quadtree levels of an integration (the
     patches, then the four children of each), evaluated before the class thresholds are
     known (they depend on L_ref, which may still be on its way): integrate(prefetch=...)
-    takes these values instead of evaluating the field there again, so its results are the
-    same to the bit. step() evaluates the next PREFETCH_CELLS cells and tells whether any are
+    takes these values, and the nodes' cell_nodes geometry, instead of computing them again,
+    so its results are the same to the bit. step() evaluates the next PREFETCH_CELLS cells and tells whether any are
     left; levels not completed are evaluated by the integration as usual. Children of
     patches that the integration accepts on their own are evaluated in vain; the
     integration's n_points count the values it takes over (the same count as without a
@@ -481,6 +481,7 @@ class NodePrefetch:
         self.cells = [_patch_cells(self.patches, patch_range)]
         self.cells.append(_children(self.cells[0]))
         self.values = []  # per level evaluated: J, K, H, regular (n, o, o)
+        self.nodes = []  # and its nodes: U, V (n, o, o), du, lo, hi (n, o) (cell_nodes)
         self.calls = []  # and the field calls it took
         self._chunks = []  # the level being evaluated, by PREFETCH_CELLS cells
 
@@ -492,14 +493,15 @@ class NodePrefetch:
             c = self.cells[level]
             a = len(self._chunks) * PREFETCH_CELLS
             k = slice(a, min(a + PREFETCH_CELLS, c["pid"].size))
-            U, V = cell_nodes(self.patches, c["pid"][k], c["s0"][k], c["s1"][k], c["t0"][k], c["t1"][k],
-                              self.x)[:2]
+            nodes = cell_nodes(self.patches, c["pid"][k], c["s0"][k], c["s1"][k], c["t0"][k], c["t1"][k],
+                               self.x)
             before = self.f.n_calls
-            self._chunks.append((values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c["pid"][k]),
-                                                 U, V), self.f.n_calls - before))
+            values = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c["pid"][k]), *nodes[:2])
+            self._chunks.append((values, nodes, self.f.n_calls - before))
             if k.stop == c["pid"].size:  # the level is complete
-                self.values.append(tuple(np.concatenate(v) for v in zip(*(ch[0] for ch in self._chunks))))
-                self.calls.append(sum(ch[1] for ch in self._chunks))
+                for out, part in ((self.values, 0), (self.nodes, 1)):
+                    out.append(tuple(np.concatenate(v) for v in zip(*(ch[part] for ch in self._chunks))))
+                self.calls.append(sum(ch[2] for ch in self._chunks))
                 self._chunks = []
         return len(self.values) < len(self.cells)
 
@@ -576,24 +578,24 @@ class _Integrator:
         return np.stack(out, -1), cls
 
     def _prefetched(self, level, rows=None):
-        """J, K, H, regular (n, o, o) at the nodes of quadtree level 0 (the patches) or 1 (the
-        children of the patches rows (m,), n = 4 m) from the NodePrefetch, None when it has
-        not evaluated that level."""
+        """(J, K, H, regular (n, o, o), and the nodes U, V, du, lo, hi as cell_nodes gives
+        them) of quadtree level 0 (the patches) or 1 (the children of the patches rows (m,),
+        n = 4 m) from the NodePrefetch, None when it has not evaluated that level."""
         p = self.prefetch
         if p is None or len(p.values) <= level or (level > 0 and rows is None):
             return None
-        vals = p.values[level]
+        vals, nodes = p.values[level], p.nodes[level]
         if level > 0:
             idx = (4 * rows[:, None] + np.arange(4)).ravel()
-            vals = tuple(v[idx] for v in vals)
+            vals, nodes = tuple(v[idx] for v in vals), tuple(a[idx] for a in nodes)
         # counted as if evaluated here: n_points are the points the integration uses
         self.f.n_points += vals[0].size
         self.f.n_calls += p.calls[level]
-        return vals
+        return vals, nodes
 
-    def _eval_cells(self, c, nodes=None):
+    def _eval_cells(self, c, prefetched=None):
         """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1), with the
-        field's values at its nodes when given (J, K, H, regular (n, o, o); else evaluated).
+        field's values at its nodes and the nodes when given (_prefetched; else computed).
 
         Returns dict Q (n, 9), mixed (n,) bool, peak (n, 3) (u, v, |K| J at the sample of
         largest |K| J), err_e (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights), pmeas (n,)
@@ -602,9 +604,11 @@ class _Integrator:
         x, w = self.x, self.w
         pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
         nc = pid.size
-        U, V, du, lo, hi = cell_nodes(self.patches, pid, s0, s1, t0, t1, x)
-        J, K, H, reg = nodes if nodes is not None else values_at_nodes(
-            self.f, self.f.grid, tensor_cells(self.patches, pid), U, V)
+        if prefetched is not None:
+            (J, K, H, reg), (U, V, du, lo, hi) = prefetched
+        else:
+            U, V, du, lo, hi = cell_nodes(self.patches, pid, s0, s1, t0, t1, x)
+            J, K, H, reg = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, pid), U, V)
         W = ((s1 - s0) * (t1 - t0))[:, None, None] * (w[:, None] * w[None, :])[None] \
             * (du * (hi - lo))[:, :, None]
         f, cls = self._integrands(J, K, H, reg)
