@@ -76,11 +76,20 @@ def _components(a):
     return np.ascontiguousarray(a.T)
 
 
+def _cross_rows(a, b):
+    """a x b (3, n) of two vector fields given as their x, y, z rows (3, n)."""
+    (ax, ay, az), (bx, by, bz) = a, b
+    c = np.empty(a.shape)
+    np.subtract(ay * bz, az * by, out=c[0])
+    np.subtract(az * bx, ax * bz, out=c[1])
+    np.subtract(ax * by, ay * bx, out=c[2])
+    return c
+
+
 def jacobian(su, sv):
     """Area element J = |S_u x S_v| (eq:brep_jacobian), (n,) float from two (n, 3) arrays."""
-    (ux, uy, uz), (vx, vy, vz) = _components(_check("Su", su)), _components(_check("Sv", sv))
-    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-    return np.sqrt(cx * cx + cy * cy + cz * cz)
+    c = _cross_rows(_components(_check("Su", su)), _components(_check("Sv", sv)))
+    return np.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2])
 
 
 class CurvatureFields(NamedTuple):
@@ -127,10 +136,7 @@ def curvature_fields(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS
     E = ux * ux + uy * uy + uz * uz
     F = ux * vx + uy * vy + uz * vz
     G = vx * vx + vy * vy + vz * vz
-    c = np.empty((3, n))
-    np.subtract(uy * vz, uz * vy, out=c[0])
-    np.subtract(uz * vx, ux * vz, out=c[1])
-    np.subtract(ux * vy, uy * vx, out=c[2])
+    c = _cross_rows(su, sv)
     D = c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
     J = np.sqrt(D)
     ref = np.maximum(E, G) if scale is None else np.broadcast_to(np.asarray(scale, dtype=float), (n,))
