@@ -151,7 +151,8 @@ def main():
         sys.exit("no BRep hulls found in %s" % args.hulls)
     exe = ensure_reference_venv(args.venv) if args.reference else None
     # byte-compiled first: where Python does not write its caches (PYTHONDONTWRITEBYTECODE,
-    # a read-only checkout) every run would otherwise compile the modules changed since
+    # a read-only checkout) every run would otherwise compile the modules changed since the
+    # last compilation
     subprocess.run([sys.executable, "-m", "compileall", "-q", os.path.join(ROOT, "hullprod_wb")], check=True)
     s_ours = startup([os.path.join(ROOT, "hullprod")])
     s_ref = startup([exe]) if exe else None
