@@ -889,8 +889,10 @@ class _Integrator:
         index (k,), level index (k,), x (k,), and the samples: dict of (n, 9) arrays J,
         KJ (K J; both 0 where not regular), K, H, reg, and zero (n,): K changes sign on the
         segment by the samples (a sign change, or a dip of K towards zero). Crossings of K = 0
-        (level 4) are refined and returned only while resolve_zero is set (see _line_values)."""
+        (level 4) are refined and returned only while resolve_zero is set (see _line_values).
+        refine may also be an (n,) bool array: per segment."""
         n = x0.size
+        refine = np.broadcast_to(np.asarray(refine, bool), (n,))
         m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
         J, K, H, reg = evalf.grid(xs)
@@ -935,7 +937,14 @@ class _Integrator:
         S["zero"][pi[cand[z4]]] = True
         if not self.resolve_zero:
             cand = cand[~z4]
-        if cand.size and refine:
+        # segments only counted: every dip whose parabola's vertex is beyond zero, the
+        # parabola's roots for its two crossings
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cross = np.nonzero(~refine[pi] & (sg * vert < 0.0) & (self.resolve_zero | (pq != 4)))[0]
+            half = np.sqrt(np.maximum(-vert[cross] / c2[cross], 0.0))
+        counted = (pi[cross], pq[cross], np.concatenate((xv[cross] - half, xv[cross] + half)))
+        cand = cand[refine[pi[cand]]]
+        if cand.size:
             pi, pq, sg = pi[cand], pq[cand], sg[cand]
             lo_, hi_ = x_0[cand], x_2[cand]
             xe, fe = _parabolic_min(lambda x, idx: sg[idx] * g(x, idx, pi, pq),
@@ -949,35 +958,33 @@ class _Integrator:
             b = np.concatenate((b, xe[hit], hi_[hit]))
             fa = np.concatenate((fa, y0[cand][hit], fe))
             fb = np.concatenate((fb, fe, y2[cand][hit]))
-        if not refine:
-            # counts only: regula falsi positions, and the parabola's roots for dips
-            with np.errstate(invalid="ignore", divide="ignore"):
-                roots = a + fa / (fa - fb) * (b - a)
-                cross = np.nonzero((sg * vert < 0.0) & (self.resolve_zero | (pq != 4)))[0]
-                half = np.sqrt(np.maximum(-vert[cross] / c2[cross], 0.0))
-            li = np.concatenate((li, pi[cross], pi[cross]))
-            q = np.concatenate((q, pq[cross], pq[cross]))
-            roots = np.concatenate((roots, xv[cross] - half, xv[cross] + half))
-            return li, q, roots, S
-        if li.size == 0:
-            return li, q, np.empty(0), S
         roots = np.empty(li.size)
+        # segments only counted: regula falsi positions in their sign-change brackets
+        fixed = ~refine[li]
+        i = np.nonzero(fixed)[0]
+        if i.size:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                roots[i] = a[i] + fa[i] / (fa[i] - fb[i]) * (b[i] - a[i])
         # on an interpolant's segment a level function is a polynomial: Newton on its
         # power series; elsewhere bracketed steps on the field
-        poly = evalf.use[li]
+        poly = evalf.use[li] & ~fixed
         i = np.nonzero(poly)[0]
         if i.size:
             roots[i] = evalf.roots(li[i], LEVEL_ROW[q[i]], self.level_offset[q[i]], a[i], b[i],
                                    fa[i], fb[i], 2.0 * CROSSING_RTOL)
-        i = np.nonzero(~poly)[0]
+        i = np.nonzero(~poly & ~fixed)[0]
         if i.size:
             roots[i] = solve_bracketed(lambda x, k: g(x, i[k], li, q), a[i], b[i], fa[i], fb[i],
                                        CROSSING_RTOL * (x1 - x0)[li[i]], maxiter=CROSSING_STEPS)
-        return li, q, roots, S
+        li = np.concatenate((li, counted[0], counted[0]))
+        q = np.concatenate((q, counted[1], counted[1]))
+        return li, q, np.concatenate((roots, counted[2])), S
 
-    def _line_values(self, cell, pid, sig, t0, t1):
+    def _line_values(self, cell, pid, sig, t0, t1, n_counted=0):
         """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)), in the mixed
-        cells cell (L,) (indices into _pc_cells).
+        cells cell (L,) (indices into _pc_cells); the last n_counted of them are not
+        integrated: their crossings are only counted (_crossings with refine False; their
+        F, E, C are zero).
 
         Returns dict F (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt, E (L, 7)
         their error estimates, C (L,) the bound charged to E's |K| column for sign changes
@@ -995,9 +1002,12 @@ class _Integrator:
         interpolants at the inner samples)."""
         L = pid.size
         evalf, width = self._segments_t(cell, pid, sig)
-        li, lq, roots, S = self._crossings(evalf, t0, t1)
-        ar = np.arange(L)
-        lid, a, b = _segments(np.concatenate((t0, roots, t1)), np.concatenate((ar, li, ar)))
+        nv = L - n_counted  # lines integrated
+        li, lq, roots, S = self._crossings(evalf, t0, t1, refine=np.arange(L) < nv)
+        counts = _count_and_pairs(li, lq, roots, L)
+        v = li < nv
+        ar = np.arange(nv)
+        lid, a, b = _segments(np.concatenate((t0[:nv], roots[v], t1[:nv])), np.concatenate((ar, li[v], ar)))
         span = (t1 - t0)[lid]
         # pieces on an interpolant's line: exact integrals of its series, class at the midpoint
         poly = evalf.use[lid]
@@ -1081,20 +1091,14 @@ class _Integrator:
         F += _row_sums(lid, P, L)
         E += _row_sums(lid, Pe, L)
         out = dict(F=F, E=E, C=np.bincount(lid, weights=charge, minlength=L), power=evalf.power)
-        out.update(_count_and_pairs(li, lq, roots, L))
+        out.update(counts)
         return out
 
-    def _line_counts(self, cell, pid, sig, t0, t1):
-        """Crossing counts (L, 5) and closest pairs (L, 5, 2) of lines, from their samples
-        only (see _crossings with refine=False)."""
-        evalf, _ = self._segments_t(cell, pid, sig)
-        li, lq, roots, _ = self._crossings(evalf, t0, t1, refine=False)
-        return dict(_count_and_pairs(li, lq, roots, pid.size), power=evalf.power)
-
-    def _piece_values(self, pc):
+    def _piece_values(self, pc, counted=True):
         """Gauss-Kronrod 3/7 in sigma over pieces pc (dict of (n,) cell, sa, sb, kind) of the
-        mixed cells _pc_cells; nodes cluster_map(kind) of XI9: the Kronrod nodes, and lines
-        next to both ends whose crossings are only counted, to detect tangencies there.
+        mixed cells _pc_cells; nodes cluster_map(kind) of XI9: the Kronrod nodes, and (with
+        counted) lines next to both ends whose crossings are only counted, to detect
+        tangencies there (in the same _line_values call).
         Slivers (pieces without clustered ends narrower than SLIVER of their cell, between
         nearby kinks such as the crossings of K = -tau_K, 0, tau_K) take the 2-point Gauss
         rule instead, with its difference to the midpoint rule as the sigma error, and no
@@ -1104,7 +1108,7 @@ class _Integrator:
         charged part (the lines' C, _line_values) (n,), and of the 9 lines: sigma (n, 9),
         count (n, 9, 5), pair (n, 9, 5, 2) (for slivers count 0 and pair NaN: no tangency
         cut), and the power series in t of the lines on interpolants (SegmentField.power)
-        (n, 9, 3, d + 1)."""
+        (n, 9, 3, d + 1) (without counted, those of the end lines are 0, NaN and 0)."""
         cells = self._pc_cells
         n, m = pc["sa"].size, XI9.size
         cw = (cells["s1"] - cells["s0"])[pc["cell"]]
@@ -1115,14 +1119,18 @@ class _Integrator:
         w = (pc["sb"] - pc["sa"])[:, None]
         sig = np.repeat(pc["sa"][:, None], m, 1) + w * XI9[None, :]
         sig[nk] = pc["sa"][nk, None] + w[nk] * c
-        # lines: the Kronrod nodes of the pieces, then the three nodes of the slivers
+        # lines: the Kronrod nodes of the pieces, then the three nodes of the slivers, then
+        # (counted only) the two end lines of the pieces
         sl = pc["sa"][ns, None] + w[ns] * XI3[None, :]
-        lsig = np.concatenate((sig[nk, 1:-1].ravel(), sl.ravel()))
-        lcell = np.concatenate((np.repeat(pc["cell"][nk], m - 2), np.repeat(pc["cell"][ns], XI3.size)))
+        ends = sig[nk][:, [0, -1]].ravel() if counted else np.empty(0)
+        ecell = np.repeat(pc["cell"][nk], 2) if counted else np.empty(0, int)
+        lsig = np.concatenate((sig[nk, 1:-1].ravel(), sl.ravel(), ends))
+        lcell = np.concatenate((np.repeat(pc["cell"][nk], m - 2), np.repeat(pc["cell"][ns], XI3.size), ecell))
         lpid = cells["pid"][lcell]
-        _, ldu = self.patches.u_of_sigma(lpid, lsig)
-        ldu = self._turned(lcell, ldu, "du")
-        d = self._line_values(lcell, lpid, lsig, cells["t0"][lcell], cells["t1"][lcell])
+        nv = lsig.size - ends.size
+        _, ldu = self.patches.u_of_sigma(lpid[:nv], lsig[:nv])
+        ldu = self._turned(lcell[:nv], ldu, "du")
+        d = self._line_values(lcell, lpid, lsig, cells["t0"][lcell], cells["t1"][lcell], n_counted=ends.size)
         nkl = nk.size * (m - 2)
         Fk, es, et = (np.zeros((n, N_LINE_Q)) for _ in range(3))
         Fc = np.zeros(n)
@@ -1134,24 +1142,23 @@ class _Integrator:
             et[nk] = np.einsum("nkq,k->nq", d["E"][:nkl].reshape(nk.size, m - 2, N_LINE_Q) * wt, WK)
             Fc[nk] = (d["C"][:nkl].reshape(nk.size, m - 2) * wt[:, :, 0]) @ WK
         if ns.size:
-            wt = (w[ns] * ldu[nkl:].reshape(ns.size, XI3.size))[:, :, None]
-            F = d["F"][nkl:].reshape(ns.size, XI3.size, N_LINE_Q) * wt
+            wt = (w[ns] * ldu[nkl:nv].reshape(ns.size, XI3.size))[:, :, None]
+            F = d["F"][nkl:nv].reshape(ns.size, XI3.size, N_LINE_Q) * wt
             Fk[ns] = 0.5 * (F[:, 0] + F[:, 2])
             es[ns] = np.abs(Fk[ns] - F[:, 1])
-            et[ns] = 0.5 * (d["E"][nkl:].reshape(ns.size, XI3.size, N_LINE_Q) * wt)[:, [0, 2]].sum(1)
-            Fc[ns] = 0.5 * (d["C"][nkl:].reshape(ns.size, XI3.size) * wt[:, :, 0])[:, [0, 2]].sum(1)
+            et[ns] = 0.5 * (d["E"][nkl:nv].reshape(ns.size, XI3.size, N_LINE_Q) * wt)[:, [0, 2]].sum(1)
+            Fc[ns] = 0.5 * (d["C"][nkl:nv].reshape(ns.size, XI3.size) * wt[:, :, 0])[:, [0, 2]].sum(1)
         count = np.zeros((n, m, N_LEVELS), int)
         pair = np.full((n, m, N_LEVELS, 2), np.nan)
         series = np.zeros((n, m) + d["power"].shape[1:])  # of the lines on interpolants
         if nk.size:
-            ends = sig[nk][:, [0, -1]].ravel()
-            ec = np.repeat(pc["cell"][nk], 2)
-            e = self._line_counts(ec, cells["pid"][ec], ends, cells["t0"][ec], cells["t1"][ec])
             count[nk, 1:-1] = d["count"][:nkl].reshape(nk.size, m - 2, -1)
-            count[nk, 0], count[nk, -1] = e["count"][0::2], e["count"][1::2]
             pair[nk, 1:-1] = d["pair"][:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
-            pair[nk, 0], pair[nk, -1] = e["pair"][0::2], e["pair"][1::2]
             series[nk, 1:-1] = d["power"][:nkl].reshape((nk.size, m - 2) + series.shape[2:])
+        if nk.size and counted:
+            e = {k: d[k][nv:] for k in ("count", "pair", "power")}
+            count[nk, 0], count[nk, -1] = e["count"][0::2], e["count"][1::2]
+            pair[nk, 0], pair[nk, -1] = e["pair"][0::2], e["pair"][1::2]
             series[nk, 0], series[nk, -1] = e["power"][0::2], e["power"][1::2]
         return Fk, es, et, Fc, sig, count, pair, series
 
@@ -1335,8 +1342,9 @@ class _Integrator:
                   sib=np.full(n, -1))
         left = budget - interpolants["err"]
         for level in range(self.class_max_depth + 1):
-            F, e_s, e_t, e_c, sig, count, pair, series = self._piece_values(pc)
             last = level == self.class_max_depth
+            # the end lines' counts serve the tangency search only, which the last level skips
+            F, e_s, e_t, e_c, sig, count, pair, series = self._piece_values(pc, counted=not last)
             tp, ts = (np.empty(0, int), None) if last else self._tangent_cuts(pc, sig, count, pair, series)
             cut = np.zeros(pc["sa"].size, bool)
             cut[tp] = True
