@@ -918,8 +918,10 @@ class _Integrator:
         # two crossings between neighbouring samples: a dip of one sign towards zero
         g0, g1, g2 = G[:, :-2], G[:, 1:-1], G[:, 2:]
         with np.errstate(invalid="ignore", divide="ignore"):
-            dip = (np.sign(g0) == np.sign(g1)) & (np.sign(g1) == np.sign(g2)) \
-                & (np.abs(g1) < np.abs(g0)) & (np.abs(g1) < np.abs(g2))
+            same = np.sign(G)  # of neighbouring samples, each sign and size taken once
+            same = same[:, :-1] == same[:, 1:]
+            size = np.abs(G)
+            dip = same[:, :-1] & same[:, 1:] & (size[:, 1:-1] < size[:, :-2]) & (size[:, 1:-1] < size[:, 2:])
             dip[:, :, 2:4] &= (near[:, :-2] | near[:, 1:-1] | near[:, 2:])[:, :, None]
             pi, pj, pq = np.nonzero(dip)
             x_0, x_1, x_2 = xs[pi, pj], xs[pi, pj + 1], xs[pi, pj + 2]
