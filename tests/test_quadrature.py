@@ -192,6 +192,88 @@ def test_flat_and_single_from_mean_curvature():
     assert r.values["A_single"] == pytest.approx(2 - 4 * TAU_H, rel=1e-12)
 
 
+def _flat_corner_reference(g, vH, tau_H, tau_K, J_inner):
+    """Class areas on the unit square of K = v - g(u) and an H increasing in v that equals
+    +-tau_H at v = vH(u, +-1): per u the flat set is the v interval where both bands
+    overlap; integrated in u by scipy's quad, split at the corners (where a band edge of
+    H meets one of K, found by brentq). J_inner(u, a, b) = int_a^b J dv."""
+    from scipy.integrate import quad
+    from scipy.optimize import brentq
+
+    def flat(u):
+        a = max(g(u) - tau_K, vH(u, -1))
+        b = min(g(u) + tau_K, vH(u, +1))
+        return J_inner(u, a, b) if b > a else 0.0
+
+    corners = []
+    for sk in (-1, 1):
+        for sh in (-1, 1):
+            h = lambda u: g(u) + sk * tau_K - vH(u, sh)
+            grid = np.linspace(0.0, 1.0, 201)
+            vals = [h(x) for x in grid]
+            corners += [brentq(h, a, b, xtol=1e-15) for a, b, fa, fb in
+                        zip(grid[:-1], grid[1:], vals[:-1], vals[1:]) if fa * fb < 0]
+    pts = sorted(corners)
+    A_flat = quad(flat, 0.0, 1.0, points=pts, epsabs=1e-15, epsrel=1e-13, limit=200)[0]
+    band = quad(lambda u: J_inner(u, g(u) - tau_K, g(u) + tau_K), 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
+    above = quad(lambda u: J_inner(u, g(u) + tau_K, 1.0), 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
+    below = quad(lambda u: J_inner(u, 0.0, g(u) - tau_K), 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
+    return {"A_flat": A_flat, "A_single": band - A_flat, "A_elliptic": above, "A_saddle": below}, len(pts)
+
+
+@pytest.mark.parametrize("curved", [False, True])
+def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
+    """Where a level of H (H = +-tau_H) meets one of K (K = +-tau_K) the flat part of the
+    band |K| <= tau_K begins or ends: the class areas' line integrals have a kink in sigma
+    there, and a flat region narrower than the spacing of the lines may lie between them.
+    The lines are cut at those corners (_Integrator._corner_cuts: found along the crossings
+    of K = +-tau_K, refined on the interpolant by Newton): the class areas match the
+    reference to 1e-10 (straight bands: the interpolants are exact; curved ones: Newton on
+    degree-9 series). Without the cuts the straight case's flat region, between the first
+    level's lines, is missed altogether (A_flat 0)."""
+    import hullprod_wb.brep.quadrature as quadrature
+    tH, tK = 0.05, 0.02
+    if curved:
+        g = lambda u: 0.5 + 0.1 * np.sin(2 * np.pi * u)
+        c1, c2 = 0.3, 0.2  # H = u - 0.4 + c1 (v - 0.5) + c2 (v - 0.5)^2, increasing in v on [0, 1]
+        H = lambda u, v: u - 0.4 + c1 * (v - 0.5) + c2 * (v - 0.5) ** 2
+
+        def vH(u, sign):  # the root of c2 w^2 + c1 w + (u - 0.4 - sign tH) = 0 with w = v - 0.5
+            c = u - 0.4 - sign * tH  # on the branch where H increases; none: H above the level
+            disc = c1 * c1 - 4 * c2 * c
+            return 0.5 + (-c1 + math.sqrt(disc)) / (2 * c2) if disc >= 0 else -10.0
+        J = lambda u, v: 1 + 0.5 * u * v
+        J_inner = lambda u, a, b: (b - a) + 0.25 * u * (b * b - a * a)
+    else:
+        g = lambda u: 0.5 + 0.2 * (u - 0.5)
+        H = lambda u, v: u - 0.4 + 0.3 * (v - 0.5)
+        vH = lambda u, sign: 0.5 + (0.4 + sign * tH - u) / 0.3
+        J = lambda u, v: 1.0
+        J_inner = lambda u, a, b: b - a
+    exact, n_corners = _flat_corner_reference(g, vH, tH, tK, J_inner)
+    assert n_corners == 4 and exact["A_flat"] > 1e-3
+    f = field_of(J, lambda u, v: v - g(u), H)
+    d = TrimmedDomain.rectangle(0, 1, 0, 1)
+    corner_cuts = quadrature._Integrator._corner_cuts
+    cuts = []
+
+    def record(self, *args):
+        out = corner_cuts(self, *args)
+        cuts.append(out[0].size)
+        return out
+
+    monkeypatch.setattr(quadrature._Integrator, "_corner_cuts", record)
+    r = integrate(d, f, tH, tK)
+    assert sum(cuts) >= 4 and r.all_converged
+    for q, v in exact.items():
+        assert r.values[q] == pytest.approx(v, abs=1e-10), q
+        assert abs(r.values[q] - v) <= r.errors[q], q
+    if not curved:
+        monkeypatch.setattr(quadrature._Integrator, "_corner_cuts", lambda self, pc, *a: (np.empty(0, int), np.empty(0)))
+        s = integrate(d, f, tH, tK)
+        assert s.values["A_flat"] == 0.0
+
+
 def test_integrable_corner_singularity_converges():
     # J = 1/r at the corner (0, 0) (area density of a cone-like parameterisation), K = 1:
     # int over [0, 1]^2 = 2 asinh(1); the quadtree refines towards the corner
@@ -820,6 +902,37 @@ def test_tangency_points_by_newton_on_the_cell_interpolant():
     # a box that excludes the tangency: NaN
     r = tangency_points(C, cells, one, np.array([2]), np.array([c]), np.array([sig(0.5)]), np.array([sig(0.9)]),
                         np.array([t(-0.9)]), np.array([t(0.9)]), np.array([sig(0.7)]), np.array([t(0.0)]), 1e-13)
+    assert np.isnan(r[0])
+
+
+def test_level_intersections_by_newton_on_the_cell_interpolant():
+    """Two level curves of a cell's interpolant (a level of H and one of K) meet where both
+    equations hold: Newton on the pair finds the point to rounding, against fsolve; a box
+    that excludes it gives NaN."""
+    from scipy.optimize import fsolve
+    from hullprod_wb.brep.cell_interpolant import level_intersections, monomial_matrix
+    deg = 9
+    Minv = np.linalg.inv(monomial_matrix(deg))
+    # K = y - 0.1 - 0.2 x^2 + 0.05 x y^3, H = x + 0.3 y + 0.2 y^2 in local coordinates
+    DK, DH = np.zeros((deg + 1, deg + 1)), np.zeros((deg + 1, deg + 1))
+    DK[0, 1], DK[0, 0], DK[2, 0], DK[1, 3] = 1.0, -0.1, -0.2, 0.05
+    DH[1, 0], DH[0, 1], DH[0, 2] = 1.0, 0.3, 0.2
+    C = np.zeros((1, 3, deg + 1, deg + 1))
+    C[0, 1], C[0, 2] = Minv.T @ DK @ Minv, Minv.T @ DH @ Minv
+    cells = dict(s0=np.array([0.0]), s1=np.array([4.0]), t0=np.array([1.0]), t1=np.array([2.0]))
+    sig = lambda x: 2.0 * (x + 1.0)
+    t = lambda y: 1.0 + 0.5 * (y + 1.0)
+    one = np.zeros(1, int)
+    cK, cH = 0.02, -0.05  # K = 0.02 meets H = -0.05
+    r = level_intersections(C, cells, one, np.array([2]), np.array([cH]), np.array([1]), np.array([cK]),
+                            np.array([sig(-0.9)]), np.array([sig(0.9)]), np.array([t(-1.0)]), np.array([t(1.0)]),
+                            np.array([sig(0.0)]), np.array([t(0.0)]), 1e-13)
+    xs, ys = fsolve(lambda p: [p[1] - 0.1 - 0.2 * p[0] ** 2 + 0.05 * p[0] * p[1] ** 3 - cK,
+                               p[0] + 0.3 * p[1] + 0.2 * p[1] ** 2 - cH], [0.0, 0.0], xtol=1e-14)
+    assert r[0] == pytest.approx(sig(xs), abs=1e-12)
+    r = level_intersections(C, cells, one, np.array([2]), np.array([cH]), np.array([1]), np.array([cK]),
+                            np.array([sig(0.2)]), np.array([sig(0.9)]), np.array([t(-1.0)]), np.array([t(1.0)]),
+                            np.array([sig(0.5)]), np.array([t(0.0)]), 1e-13)
     assert np.isnan(r[0])
 
 

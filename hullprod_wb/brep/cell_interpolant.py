@@ -395,3 +395,53 @@ def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start
         act = act[~conv & ~out]
     x[~done] = np.nan
     return s0 + 0.5 * (x + 1.0) * (s1 - s0)
+
+
+def level_intersections(C, cells, cell, row1, offset1, row2, offset2, s_lo, s_hi, t_lo, t_hi,
+                        s_start, t_start, stol):
+    """Points where two level curves of the interpolants C (n, 3, d + 1, d + 1) of the cells
+    cell (k,) meet: g1 = f_row1 - offset1 = 0 and g2 = f_row2 - offset2 = 0 (a corner of a
+    class region, where a level of H meets a level of K), by Newton's method on that pair of
+    polynomial equations (in powers of the cell's local coordinates, as tangency_points),
+    started at (s_start, t_start) and kept in the boxes [s_lo, s_hi] x [t_lo, t_hi] (patch
+    coordinates, all (k,)). Returns sigma (k,) of the converged points (last step below
+    stol in sigma, a scalar or (k,), and below TANGENCY_YTOL in t) and NaN where Newton
+    failed or left its box."""
+    deg = C.shape[-1] - 1
+    M = monomial_matrix(deg)
+    D1 = M.T @ C[cell, row1] @ M
+    D1[:, 0, 0] -= offset1
+    D2 = M.T @ C[cell, row2] @ M
+    D2[:, 0, 0] -= offset2
+    s0, s1 = cells["s0"][cell], cells["s1"][cell]
+    t0, t1 = cells["t0"][cell], cells["t1"][cell]
+    x, y = _local(s_start, s0, s1), _local(t_start, t0, t1)
+    xl, xh = _local(np.minimum(s_lo, s_hi), s0, s1), _local(np.maximum(s_lo, s_hi), s0, s1)
+    yl, yh = _local(np.minimum(t_lo, t_hi), t0, t1), _local(np.maximum(t_lo, t_hi), t0, t1)
+    xtol = 2.0 * np.broadcast_to(stol, x.shape) / (s1 - s0)
+    powers = np.arange(deg + 1)
+    done = np.zeros(cell.size, bool)
+    act = np.arange(cell.size)
+    for _ in range(TANGENCY_STEPS):
+        if act.size == 0:
+            break
+        xa, ya = x[act], y[act]
+        n = act.size
+        # both functions' rows r_i(y) and their y derivatives in one Horner pass, then x
+        r0, r1, _ = horner2(np.concatenate((D1[act], D2[act])).reshape(-1, deg + 1), np.tile(np.repeat(ya, deg + 1), 2))
+        r0, r1 = r0.reshape(2 * n, deg + 1), r1.reshape(2 * n, deg + 1)
+        x2 = np.concatenate((xa, xa))
+        g, gy, gx = horner(r0, x2), horner(r1, x2), horner(r0[:, 1:] * powers[1:], x2)
+        det = gx[:n] * gy[n:] - gy[:n] * gx[n:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dx = (-g[:n] * gy[n:] + g[n:] * gy[:n]) / det
+            dy = (-g[n:] * gx[:n] + g[:n] * gx[n:]) / det
+        x[act], y[act] = xa + dx, ya + dy
+        ok = np.isfinite(dx) & np.isfinite(dy)
+        out = ~ok | (x[act] < xl[act]) | (x[act] > xh[act]) | (y[act] < yl[act]) | (y[act] > yh[act])
+        conv = ok & ~out & (np.abs(dx) <= xtol[act]) & (np.abs(dy) <= TANGENCY_YTOL)
+        x[act[out]] = np.nan
+        done[act[conv]] = True
+        act = act[~conv & ~out]
+    x[~done] = np.nan
+    return s0 + 0.5 * (x + 1.0) * (s1 - s0)

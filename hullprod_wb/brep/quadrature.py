@@ -57,9 +57,13 @@ beside them, and cross the cell's t edges (each crossing a cut, below) far less 
   integrated by Gauss-Kronrod 3/7, with the integral of their interpolants at ZS as the
   comparison for the error estimate (on pieces shorter than SHORT_PIECE of the line, the
   interpolants, against those of lower degree);
-- in sigma the cell is cut where level curves cross its t edges (kinks of the line values)
-  and where they are tangent to the lines (found between lines whose crossing counts
-  differ; square-root ends, so those pieces get a clustered map), and the pieces are
+- in sigma the cell is cut where level curves cross its t edges (kinks of the line values),
+  where they are tangent to the lines (found between lines whose crossing counts
+  differ; square-root ends, so those pieces get a clustered map), and, on interpolants,
+  at the corners of the flat region, where a level of H meets one of K (found where H -+
+  tau_H changes sign along a crossing of K = +-tau_K between lines, then by Newton on the
+  pair of level equations; kinks of the class areas' line integrals, and the only trace
+  of a flat region that lies between two lines), and the pieces are
   integrated by Gauss-Kronrod 3/7 (error |K7 - G3|), halving those whose error does not
   fit, at most class_max_depth times;
 - on lines of the field, the quadtree's own children sums of the K integrals bound the
@@ -76,8 +80,8 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.integrals import SurfaceIntegrals
 from ..core.thresholds import check_positive, classify
-from .cell_interpolant import (SegmentField, _local, cell_values, fit_interpolants, grid_matrices,
-                               tangency_points, window_min_of)
+from .cell_interpolant import (SegmentField, _local, cell_values, fit_interpolants, grid_matrices, horner,
+                               level_intersections, tangency_points, window_min_of)
 from .gauss_rules import (WK, XK, embedded_weights, gauss_nodes, kronrod_error, legendre_vander,
                           piece_weights)
 from .nurbs import grid_points
@@ -348,19 +352,26 @@ def _segments(cuts, owner):
 
 
 def _count_and_pairs(line, level, roots, L):
-    """Crossings per line and level, count (L, 5), and the closest two of each, pair
-    (L, 5, 2) (NaN when fewer than two), from roots (k,) of lines line (k,), levels (k,)."""
+    """Crossings per line and level, count (L, 5), the closest two of each, pair
+    (L, 5, 2) (NaN when fewer than two), and the first and last of each, ends (L, 5, 2) (NaN
+    when none), from roots (k,) of lines line (k,), levels (k,)."""
     key = line * N_LEVELS + level
     count = np.bincount(key, minlength=N_LEVELS * L).reshape(L, N_LEVELS)
     pair = np.full((L, N_LEVELS, 2), np.nan)
+    ends = np.full((L, N_LEVELS, 2), np.nan)
     o = np.lexsort((roots, key))
     key, r = key[o], roots[o]
+    if key.size:
+        new = np.r_[True, key[1:] != key[:-1]]
+        ends.reshape(-1, 2)[key[new], 0] = r[new]
+        last = np.r_[new[1:], True]
+        ends.reshape(-1, 2)[key[last], 1] = r[last]
     k = np.nonzero(key[1:] == key[:-1])[0]
     if k.size:
         k = k[np.lexsort((r[k + 1] - r[k], key[k]))]
         k = k[np.r_[True, key[k][1:] != key[k][:-1]]]
         pair.reshape(-1, 2)[key[k]] = np.stack((r[k], r[k + 1]), 1)
-    return dict(count=count, pair=pair)
+    return dict(count=count, pair=pair, ends=ends)
 
 
 def _parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
@@ -992,7 +1003,7 @@ class _Integrator:
         their error estimates, C (L,) the bound charged to E's |K| column for sign changes
         of K left unresolved (below; half of it to K+ and K-), count (L, 5) crossings of each
         level, pair (L, 5, 2) the closest two crossings of each level (NaN when fewer than
-        two). The pieces of a line between crossings have the class and the sign of K of
+        two), ends (L, 5, 2) the first and last crossing of each level (_count_and_pairs). The pieces of a line between crossings have the class and the sign of K of
         their midpoint; unless resolve_zero is set, K = 0 does not cut the lines, and flat
         and single pieces take the sign of their K integral instead. On lines of an
         interpolant J and K J are integrated exactly (SegmentField.integrals, no error
@@ -1109,8 +1120,9 @@ class _Integrator:
         Returns values (n, 7), sigma error (_kronrod_error) (n, 7), t error (n, 7), its
         charged part (the lines' C, _line_values) (n,), and of the 9 lines: sigma (n, 9),
         count (n, 9, 5), pair (n, 9, 5, 2) (for slivers count 0 and pair NaN: no tangency
-        cut), and the power series in t of the lines on interpolants (SegmentField.power)
-        (n, 9, 3, d + 1) (without counted, those of the end lines are 0, NaN and 0)."""
+        cut), the first and last crossing of each level, ends (n, 9, 5, 2) (NaN where none),
+        and the power series in t of the lines on interpolants (SegmentField.power)
+        (n, 9, 3, d + 1) (without counted, those of the end lines are 0, NaN, NaN and 0)."""
         cells = self._pc_cells
         n, m = pc["sa"].size, XI9.size
         cw = (cells["s1"] - cells["s0"])[pc["cell"]]
@@ -1152,17 +1164,20 @@ class _Integrator:
             Fc[ns] = 0.5 * (d["C"][nkl:nv].reshape(ns.size, XI3.size) * wt[:, :, 0])[:, [0, 2]].sum(1)
         count = np.zeros((n, m, N_LEVELS), int)
         pair = np.full((n, m, N_LEVELS, 2), np.nan)
+        ends = np.full((n, m, N_LEVELS, 2), np.nan)
         series = np.zeros((n, m) + d["power"].shape[1:])  # of the lines on interpolants
         if nk.size:
             count[nk, 1:-1] = d["count"][:nkl].reshape(nk.size, m - 2, -1)
             pair[nk, 1:-1] = d["pair"][:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
+            ends[nk, 1:-1] = d["ends"][:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
             series[nk, 1:-1] = d["power"][:nkl].reshape((nk.size, m - 2) + series.shape[2:])
         if nk.size and counted:
-            e = {k: d[k][nv:] for k in ("count", "pair", "power")}
+            e = {k: d[k][nv:] for k in ("count", "pair", "ends", "power")}
             count[nk, 0], count[nk, -1] = e["count"][0::2], e["count"][1::2]
             pair[nk, 0], pair[nk, -1] = e["pair"][0::2], e["pair"][1::2]
+            ends[nk, 0], ends[nk, -1] = e["ends"][0::2], e["ends"][1::2]
             series[nk, 0], series[nk, -1] = e["power"][0::2], e["power"][1::2]
-        return Fk, es, et, Fc, sig, count, pair, series
+        return Fk, es, et, Fc, sig, count, pair, ends, series
 
     def _edge_cuts(self, cells):
         """sigma (k,) where level curves cross the cells' edges t = t0 and t = t1, and the
@@ -1270,6 +1285,57 @@ class _Integrator:
         inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
         return p[i][inside], root[inside]
 
+    def _corner_cuts(self, pc, sig, count, ends, series):
+        """sigma (k,) and piece (k,) where a level curve of H (H = +-tau_H) meets one of K
+        (K = +-tau_K) inside a piece on an interpolant: a corner of the flat region, where
+        the class areas' line integrals have a kink in sigma (the flat part of the band
+        |K| <= tau_K begins or ends).
+
+        Along a crossing of K = +-tau_K that every line of the piece has (the same count,
+        one or two, on all of them: its first and last crossing, ends), psi = g_H at that
+        crossing (H - tau_H or H + tau_H, from the line's power series) changes sign between
+        neighbouring lines where the curves meet; that corner is found by Newton's method on
+        the pair of level equations on the interpolant (level_intersections), from the point
+        between the lines where psi interpolates to zero, and kept when it lies between
+        them. Corners Newton does not find, and corners on lines of the field, give no cut."""
+        cells = self._pc_cells
+        cell = pc["cell"]
+        deg = series.shape[-1] - 1
+        # pieces on an interpolant, K levels (0, 1) crossed as often (once or twice) on all
+        # of their lines, and whether a second crossing is there
+        ck = count[:, :, :2]
+        ok = self._interp["use"][cell][:, None] & np.all(ck == ck[:, :1], 1) & (ck[:, 0] >= 1) & (ck[:, 0] <= 2)
+        ok = np.stack((ok, ok & (ck[:, 0] == 2)), -1)  # (n, K level, first or last crossing)
+        p = np.nonzero(ok.any((1, 2)))[0]
+        if p.size == 0:
+            return p, np.empty(0)
+        tk = ends[p][:, :, :2, :]  # (m, 9 lines, K level, end)
+        z = _local(tk, cells["t0"][cell[p], None, None, None], cells["t1"][cell[p], None, None, None])
+        Hs = np.repeat(series[p, :, 2, None, :], 4, axis=2)  # each line's H series, for its 4 crossings
+        H = horner(Hs.reshape(-1, deg + 1), z.reshape(-1)).reshape(tk.shape)
+        # psi (m, 9, K level, end, H level): g_H at the K crossings, its sign changes between lines
+        psi = H[..., None] - self.level_offset[2:4]
+        pos = psi > 0.0
+        fin = np.isfinite(psi)
+        change = (pos[:, :-1] != pos[:, 1:]) & fin[:, :-1] & fin[:, 1:] & ok[p][:, None, :, :, None]
+        i, j, qk, e, h = np.nonzero(change)
+        if i.size == 0:
+            return i, np.empty(0)
+        qh = h + 2
+        pa, pb = psi[i, j, qk, e, h], psi[i, j + 1, qk, e, h]
+        w = pa / (pa - pb)
+        p = p[i]
+        sa, sb = sig[p, j], sig[p, j + 1]
+        s_start = sa + w * (sb - sa)
+        t_start = tk[i, j, qk, e] + w * (tk[i, j + 1, qk, e] - tk[i, j, qk, e])
+        c = cell[p]
+        root = level_intersections(self._interp["C"], cells, c, LEVEL_ROW[qh], self.level_offset[qh],
+                                   LEVEL_ROW[qk], self.level_offset[qk], sa, sb, cells["t0"][c], cells["t1"][c],
+                                   s_start, t_start, TANGENT_RTOL * (pc["sb"] - pc["sa"])[p])
+        w = (pc["sb"] - pc["sa"])[p]
+        inside = (root > pc["sa"][p] + EDGE_XI * w) & (root < pc["sb"][p] - EDGE_XI * w)
+        return p[inside], root[inside]
+
     def _turn_cells(self, cells, interpolants):
         """The mixed cells with their lines turned where that suits the level curves: a cell
         on its interpolant, in a patch whose map to (u, v) is affine (linear in sigma, constant
@@ -1346,8 +1412,13 @@ class _Integrator:
         for level in range(self.class_max_depth + 1):
             last = level == self.class_max_depth
             # the end lines' counts serve the tangency search only, which the last level skips
-            F, e_s, e_t, e_c, sig, count, pair, series = self._piece_values(pc, counted=not last)
-            tp, ts = (np.empty(0, int), None) if last else self._tangent_cuts(pc, sig, count, pair, series)
+            F, e_s, e_t, e_c, sig, count, pair, ends, series = self._piece_values(pc, counted=not last)
+            if last:
+                tp, ts = np.empty(0, int), None
+            else:  # tangencies, and corners where a level of H meets a level of K
+                tp, ts = self._tangent_cuts(pc, sig, count, pair, series)
+                cp, cs = self._corner_cuts(pc, sig, count, ends, series)
+                tp, ts = np.concatenate((tp, cp)), np.concatenate((ts, cs))
             cut = np.zeros(pc["sa"].size, bool)
             cut[tp] = True
             c = pc["cell"]
