@@ -274,6 +274,46 @@ def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
         assert s.values["A_flat"] == 0.0
 
 
+@pytest.mark.parametrize("case", ["elliptic in saddle", "saddle in elliptic", "band in elliptic"])
+def test_islands_that_no_line_meets_are_found(monkeypatch, case):
+    """A small island of one class inside a mixed cell, between all of the cell's lines: the
+    lines find none of it, but the cell's interpolant holds it. Where the interpolant's
+    Bernstein bounds allow a part the lines miss, its extremum of K is searched and the
+    piece through it cut (_Integrator._island_cuts); the next level's lines then meet the
+    island. Class areas within 1e-9 of the closed form and within their error estimates
+    (before: the island's class area 0, error estimate 0)."""
+    import hullprod_wb.brep.quadrature as quadrature
+    c = np.array([0.33, 0.61])
+    r2 = lambda u, v: (u - c[0]) ** 2 + (v - c[1]) ** 2
+    if case == "band in elliptic":
+        tK = 1e-3
+        K = lambda u, v: r2(u, v) + 0.5 * tK  # |K| <= tau_K where r^2 <= tau_K / 2
+        exact = {"A_single": math.pi * 0.5 * tK, "A_elliptic": 1 - math.pi * 0.5 * tK, "A_saddle": 0.0}
+    else:
+        tK, R = 1e-6, 0.03
+        sign = 1.0 if case == "elliptic in saddle" else -1.0
+        K = lambda u, v: sign * (R * R - r2(u, v))
+        inner, outer = math.pi * (R * R - tK), 1 - math.pi * (R * R + tK)
+        exact = {"A_elliptic": inner, "A_saddle": outer} if sign > 0 else {"A_saddle": inner, "A_elliptic": outer}
+        exact["A_single"] = 1 - inner - outer
+    f = field_of(lambda u, v: 1.0, K)
+    island_cuts = quadrature._Integrator._island_cuts
+    cuts = []
+
+    def record(self, pc, F):
+        out = island_cuts(self, pc, F)
+        cuts.append(out[0].size)
+        return out
+
+    monkeypatch.setattr(quadrature._Integrator, "_island_cuts", record)
+    r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, tK)
+    assert sum(cuts) >= 1
+    for q, v in exact.items():
+        assert r.values[q] == pytest.approx(v, abs=1e-9), q
+        assert abs(r.values[q] - v) <= r.errors[q] + 1e-15, q
+        assert r.converged[q], q
+
+
 def test_integrable_corner_singularity_converges():
     # J = 1/r at the corner (0, 0) (area density of a cone-like parameterisation), K = 1:
     # int over [0, 1]^2 = 2 asinh(1); the quadtree refines towards the corner

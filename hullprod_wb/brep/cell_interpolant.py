@@ -445,3 +445,77 @@ def level_intersections(C, cells, cell, row1, offset1, row2, offset2, s_lo, s_hi
         act = act[~conv & ~out]
     x[~done] = np.nan
     return s0 + 0.5 * (x + 1.0) * (s1 - s0)
+
+
+@functools.lru_cache(maxsize=None)
+def bernstein_matrix(deg):
+    """(deg + 1, deg + 1) matrix T: T a are the Bernstein coefficients on [-1, 1] of the power
+    series sum_i a_i z^i (z = 2 s - 1, then s^j = sum_k C(k, j) / C(deg, j) B_k(s)); the
+    series lies between their least and largest on [-1, 1]. Read-only, one per degree."""
+    from math import comb
+    n = deg
+    A = np.zeros((n + 1, n + 1))  # powers of z -> powers of s
+    for i in range(n + 1):
+        for j in range(i + 1):
+            A[j, i] = comb(i, j) * 2.0 ** j * (-1.0) ** (i - j)
+    S = np.zeros((n + 1, n + 1))  # powers of s -> Bernstein
+    for k in range(n + 1):
+        for j in range(k + 1):
+            S[k, j] = comb(k, j) / comb(n, j)
+    T = S @ A
+    T.flags.writeable = False
+    return T
+
+
+def interpolant_range(C, cell, row):
+    """Bounds lo, hi (k,) of the interpolants' row (0 J, 1 K, 2 H) over their cells cell (k,):
+    the least and largest tensor Bernstein coefficient (the polynomial in the cell's local
+    coordinates lies in their convex hull)."""
+    deg = C.shape[-1] - 1
+    M, T = monomial_matrix(deg), bernstein_matrix(deg)
+    B = T @ (M.T @ C[cell, row] @ M) @ T.T
+    return B.min((1, 2)), B.max((1, 2))
+
+
+#: Grid of the search for an interpolant's extremum (per local axis), and Newton steps after it.
+EXTREMUM_GRID = 9
+EXTREMUM_STEPS = 6
+
+
+def interpolant_extremum(C, cell, row, sign):
+    """The largest value of sign * (the interpolants' row) over their cells cell (k,) (sign:
+    +1 or -1, scalar or (k,)) as far as a search finds it: the best point of an EXTREMUM_GRID x EXTREMUM_GRID grid in the
+    cell's local coordinates, then up to EXTREMUM_STEPS Newton steps on the gradient (kept
+    where they improve the value and stay in [-1, 1]^2). Returns value (k,) (of the row,
+    sign included) and local coordinates x, y (k,) of the point."""
+    deg = C.shape[-1] - 1
+    k = cell.size
+    z = np.linspace(-1.0, 1.0, EXTREMUM_GRID)
+    P = legendre_vander(z, deg)
+    sign = np.broadcast_to(np.asarray(sign, dtype=float), (k,))
+    G = sign[:, None, None] * np.einsum("ia,kab,jb->kij", P, C[cell, row], P)
+    best = G.reshape(k, -1).argmax(1)
+    x, y = z[best // EXTREMUM_GRID], z[best % EXTREMUM_GRID]
+    val = G.reshape(k, -1)[np.arange(k), best]
+    M = monomial_matrix(deg)
+    D = sign[:, None, None] * (M.T @ C[cell, row] @ M)  # sum_ij D_ij x^i y^j
+    pw = np.arange(deg + 1)
+    for _ in range(EXTREMUM_STEPS):
+        r0, r1, r2 = horner2(D.reshape(-1, deg + 1), np.repeat(y, deg + 1))
+        r0, r1, r2 = (r.reshape(k, deg + 1) for r in (r0, r1, r2))
+        gx = horner(r0[:, 1:] * pw[1:], x)
+        gy = horner(r1, x)
+        gxx = horner(r0[:, 2:] * (pw[2:] * pw[1:-1]), x)
+        gxy = horner(r1[:, 1:] * pw[1:], x)
+        gyy = horner(r2, x)
+        det = gxx * gyy - gxy * gxy
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xn = x - (gyy * gx - gxy * gy) / det
+            yn = y - (gxx * gy - gxy * gx) / det
+        ok = np.isfinite(xn) & np.isfinite(yn) & (np.abs(xn) <= 1.0) & (np.abs(yn) <= 1.0)
+        xn, yn = np.where(ok, xn, x), np.where(ok, yn, y)
+        r = horner(D.reshape(-1, deg + 1), np.repeat(yn, deg + 1)).reshape(k, deg + 1)
+        vn = horner(r, xn)
+        better = ok & (vn > val)
+        x, y, val = np.where(better, xn, x), np.where(better, yn, y), np.where(better, vn, val)
+    return val, x, y

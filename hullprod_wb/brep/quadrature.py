@@ -63,13 +63,16 @@ beside them, and cross the cell's t edges (each crossing a cut, below) far less 
   at the corners of the flat region, where a level of H meets one of K (found where H -+
   tau_H changes sign along a crossing of K = +-tau_K between lines, then by Newton on the
   pair of level equations; kinks of the class areas' line integrals, and the only trace
-  of a flat region that lies between two lines), and the pieces are
+  of a flat region that lies between two lines), and through islands of a class that no
+  line of an interpolant's cell meets (where the lines miss a part that the interpolant's
+  Bernstein bounds allow, the extremum of K is searched), and the pieces are
   integrated by Gauss-Kronrod 3/7 (error |K7 - G3|), halving those whose error does not
   fit, at most class_max_depth times;
 - on lines of the field, the quadtree's own children sums of the K integrals bound the
   line error estimate from below where both disagree (a rough or singular integrand the
   lines do not resolve); an interpolant has passed the sharper check above.
-Islands of a level curve inside a cell that no sample sees are not resolved.
+Islands of a level curve inside a cell that no sample sees (a cell that is not mixed), or
+inside a cell on the field between its lines, are not resolved.
 """
 import time
 from dataclasses import dataclass
@@ -81,7 +84,8 @@ from ..core.errors import InputError
 from ..core.integrals import SurfaceIntegrals
 from ..core.thresholds import check_positive, classify
 from .cell_interpolant import (SegmentField, _local, cell_values, fit_interpolants, grid_matrices, horner,
-                               level_intersections, tangency_points, window_min_of)
+                               interpolant_extremum, interpolant_range, level_intersections,
+                               tangency_points, window_min_of)
 from .gauss_rules import (WK, XK, embedded_weights, gauss_nodes, kronrod_error, legendre_vander,
                           piece_weights)
 from .nurbs import grid_points
@@ -1336,6 +1340,50 @@ class _Integrator:
         inside = (root > pc["sa"][p] + EDGE_XI * w) & (root < pc["sb"][p] - EDGE_XI * w)
         return p[inside], root[inside]
 
+    def _island_cuts(self, pc, F):
+        """sigma (k,) and piece (k,) through islands of a class inside cells on an
+        interpolant that none of the cell's lines meets (first level: the pieces pc cover
+        their cells; F (n, 7) their line integrals): where the lines find no elliptic part
+        but the interpolant's K may exceed tau_K (its Bernstein bounds,
+        cell_interpolant.interpolant_range), or no saddle part and K may fall below -tau_K,
+        or only one of them and no band |K| <= tau_K while K may enter it, the extremum of K
+        is searched (interpolant_extremum); where it lies beyond the level, the piece through
+        it is cut at its sigma, so that the next level's lines next to the cut cross the
+        island (and find its tangencies)."""
+        cells = self._pc_cells
+        use = self._interp["use"]
+        nc = use.size
+        area = _row_sums(pc["cell"], F[:, 3:], nc)  # flat, single, elliptic, saddle
+        ell, sad, band = area[:, 2] > 0.0, area[:, 3] > 0.0, area[:, 0] + area[:, 1] > 0.0
+        tk = self.tau_K
+        c = np.nonzero(use & ~(ell & sad & band))[0]
+        if c.size == 0:
+            return np.empty(0, int), np.empty(0)
+        lo, hi = interpolant_range(self._interp["C"], c, 1)
+        # the largest K (sign 1) or the least (-1) where the lines miss a part that the bounds
+        # allow: beyond tau_K (elliptic), below -tau_K (saddle), into the band from above or
+        # below (only elliptic or only saddle on the lines); one search for all of them
+        searches = [(c[m], sign, bound, strict) for m, sign, bound, strict in (
+            (~ell[c] & (hi > tk), 1.0, tk, True), (~sad[c] & (lo < -tk), -1.0, tk, True),
+            (~band[c] & ell[c] & ~sad[c] & (lo <= tk), -1.0, -tk, False),
+            (~band[c] & sad[c] & ~ell[c] & (hi >= -tk), 1.0, -tk, False)) if m.any()]
+        if not searches:
+            return np.empty(0, int), np.empty(0)
+        cell = np.concatenate([a[0] for a in searches])
+        sign, bound, strict = (np.concatenate([np.full(a[0].size, a[i]) for a in searches]) for i in (1, 2, 3))
+        val, x, _ = interpolant_extremum(self._interp["C"], cell, 1, sign)
+        hit = np.where(strict, val > bound, val >= bound)
+        cell, x = cell[hit], x[hit]
+        if cell.size == 0:
+            return np.empty(0, int), np.empty(0)
+        at = cells["s0"][cell] + 0.5 * (x + 1.0) * (cells["s1"][cell] - cells["s0"][cell])
+        # the piece of each cell that holds the point, away from its ends
+        w = pc["sb"] - pc["sa"]
+        m = (pc["cell"][None, :] == cell[:, None]) & (at[:, None] > pc["sa"] + EDGE_XI * w) \
+            & (at[:, None] < pc["sb"] - EDGE_XI * w)
+        i, p = np.nonzero(m)
+        return p, at[i]
+
     def _turn_cells(self, cells, interpolants):
         """The mixed cells with their lines turned where that suits the level curves: a cell
         on its interpolant, in a patch whose map to (u, v) is affine (linear in sigma, constant
@@ -1419,6 +1467,9 @@ class _Integrator:
                 tp, ts = self._tangent_cuts(pc, sig, count, pair, series)
                 cp, cs = self._corner_cuts(pc, sig, count, ends, series)
                 tp, ts = np.concatenate((tp, cp)), np.concatenate((ts, cs))
+                if level == 0:  # and islands of a class that no line of a cell meets
+                    ip, is_ = self._island_cuts(pc, F)
+                    tp, ts = np.concatenate((tp, ip)), np.concatenate((ts, is_))
             cut = np.zeros(pc["sa"].size, bool)
             cut[tp] = True
             c = pc["cell"]
