@@ -976,6 +976,34 @@ def test_level_intersections_by_newton_on_the_cell_interpolant():
     assert np.isnan(r[0])
 
 
+def test_interpolant_range_bounds_and_extremum_search():
+    """Bernstein bounds of a cell's interpolant enclose its values on the cell; the extremum
+    search finds an interior maximum (Newton from the grid's best point) and a corner
+    minimum to rounding."""
+    from hullprod_wb.brep.cell_interpolant import interpolant_extremum, interpolant_range, monomial_matrix
+    deg = 9
+    Minv = np.linalg.inv(monomial_matrix(deg))
+    # K = 0.0009 - (x - 0.31)^2 - (y + 0.17)^2 + 0.05 x^3 y in local coordinates
+    D = np.zeros((deg + 1, deg + 1))
+    D[0, 0], D[1, 0], D[2, 0] = 0.0009 - 0.31 ** 2 - 0.17 ** 2, 0.62, -1.0
+    D[0, 1], D[0, 2], D[3, 1] = -0.34, -1.0, 0.05
+    C = np.zeros((1, 3, deg + 1, deg + 1))
+    C[0, 1] = Minv.T @ D @ Minv
+    K = lambda x, y: 0.0009 - (x - 0.31) ** 2 - (y + 0.17) ** 2 + 0.05 * x ** 3 * y
+    g = np.linspace(-1, 1, 801)
+    V = K(g[:, None], g[None, :])
+    one = np.zeros(1, int)
+    lo, hi = interpolant_range(C, one, 1)
+    assert lo[0] <= V.min() + 1e-15 and hi[0] >= V.max() - 1e-15
+    from scipy.optimize import minimize
+    best = minimize(lambda p: -K(p[0], p[1]), [0.3, -0.2], tol=1e-14).x
+    val, x, y = interpolant_extremum(C, one, 1, 1.0)
+    assert val[0] == pytest.approx(K(*best), abs=1e-14)
+    assert x[0] == pytest.approx(best[0], abs=1e-7) and y[0] == pytest.approx(best[1], abs=1e-7)
+    val, x, y = interpolant_extremum(C, one, 1, -1.0)
+    assert -val[0] == pytest.approx(V.min(), abs=1e-14) and abs(x[0]) == 1.0 and abs(y[0]) == 1.0
+
+
 @needs_freecad
 def test_grid_evaluated_cells_give_the_pointwise_values(fc):
     """A trimmed B-spline face has cells between constant bounds, evaluated as tensor grids
