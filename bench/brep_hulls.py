@@ -152,8 +152,9 @@ def main():
     exe = ensure_reference_venv(args.venv) if args.reference else None
     # byte-compiled first: where Python does not write its caches (PYTHONDONTWRITEBYTECODE,
     # a read-only checkout) every run would otherwise compile the modules changed since the
-    # last compilation
-    subprocess.run([sys.executable, "-m", "compileall", "-q", os.path.join(ROOT, "hullprod_wb")], check=True)
+    # last compilation; forced, since compileall keeps a .pyc whose recorded time equals its
+    # source's, which a file edited within the second of its last compile also has
+    subprocess.run([sys.executable, "-m", "compileall", "-q", "-f", os.path.join(ROOT, "hullprod_wb")], check=True)
     s_ours = startup([os.path.join(ROOT, "hullprod")])
     s_ref = startup([exe]) if exe else None
     print("start-up (best of 3 --help): HullProd for FreeCAD %.2f s%s" % (
