@@ -348,32 +348,62 @@ TANGENCY_STEPS = 12
 TANGENCY_YTOL = 1e-9
 
 
-def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol):
-    """Points where the level curve {f_row - offset = 0} of the interpolants C (n, 3, d + 1,
-    d + 1) of the cells cell (k,) is tangent to a line sigma = const: g = 0 and dg/dt = 0,
-    by Newton's method on that pair of polynomial equations (the interpolant in powers of
-    the cell's local coordinates, D = M^T C M with M = monomial_matrix), started at
-    (s_start, t_start) and kept in the boxes [s_lo, s_hi] x [t_lo, t_hi] (patch coordinates,
-    all (k,)). Returns sigma (k,) of the converged points (last step below stol in sigma, a
-    scalar or (k,), and below TANGENCY_YTOL in t) and NaN where Newton failed or left its
-    box (the caller's bracketed search takes those)."""
-    deg = C.shape[-1] - 1
-    M = monomial_matrix(deg)
-    D = M.T @ C[cell, row] @ M  # (k, d + 1, d + 1): g = sum_ij D_ij x^i y^j
-    D[:, 0, 0] -= offset
+def _monomial(C, cell, row, offset=None):
+    """The interpolants' row of the cells cell (k,) in powers of their local coordinates,
+    D (k, d + 1, d + 1) with f = sum_ij D_ij x^i y^j (D = M^T C M, M = monomial_matrix), less
+    offset (k,) when given."""
+    M = monomial_matrix(C.shape[-1] - 1)
+    D = M.T @ C[cell, row] @ M
+    if offset is not None:
+        D[:, 0, 0] -= offset
+    return D
+
+
+def _newton_in_box(cells, cell, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol, step):
+    """Newton iterations in the cells' local coordinates (x, y) from (s_start, t_start),
+    kept in the boxes [s_lo, s_hi] x [t_lo, t_hi] (patch coordinates, all (k,)): step(act,
+    x, y) returns the steps dx, dy of the points act at (x, y). Returns sigma (k,) of the
+    points whose last step is below stol in sigma (a scalar or (k,)) and TANGENCY_YTOL in t,
+    NaN where a step failed or left the box, or TANGENCY_STEPS did not converge."""
     s0, s1 = cells["s0"][cell], cells["s1"][cell]
     t0, t1 = cells["t0"][cell], cells["t1"][cell]
     x, y = _local(s_start, s0, s1), _local(t_start, t0, t1)
     xl, xh = _local(np.minimum(s_lo, s_hi), s0, s1), _local(np.maximum(s_lo, s_hi), s0, s1)
     yl, yh = _local(np.minimum(t_lo, t_hi), t0, t1), _local(np.maximum(t_lo, t_hi), t0, t1)
     xtol = 2.0 * np.broadcast_to(stol, x.shape) / (s1 - s0)
-    powers = np.arange(deg + 1)
     done = np.zeros(cell.size, bool)
     act = np.arange(cell.size)
     for _ in range(TANGENCY_STEPS):
         if act.size == 0:
             break
         xa, ya = x[act], y[act]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dx, dy = step(act, xa, ya)
+        x[act], y[act] = xa + dx, ya + dy
+        ok = np.isfinite(dx) & np.isfinite(dy)
+        out = ~ok | (x[act] < xl[act]) | (x[act] > xh[act]) | (y[act] < yl[act]) | (y[act] > yh[act])
+        conv = ok & ~out & (np.abs(dx) <= xtol[act]) & (np.abs(dy) <= TANGENCY_YTOL)
+        x[act[out]] = np.nan
+        done[act[conv]] = True
+        act = act[~conv & ~out]
+    x[~done] = np.nan
+    return s0 + 0.5 * (x + 1.0) * (s1 - s0)
+
+
+def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol):
+    """Points where the level curve {f_row - offset = 0} of the interpolants C (n, 3, d + 1,
+    d + 1) of the cells cell (k,) is tangent to a line sigma = const: g = 0 and dg/dt = 0,
+    by Newton's method on that pair of polynomial equations (the interpolant in powers of
+    the cell's local coordinates, _monomial), started at (s_start, t_start) and kept in the
+    boxes [s_lo, s_hi] x [t_lo, t_hi] (patch coordinates, all (k,)) (_newton_in_box).
+    Returns sigma (k,) of the converged points (last step below stol in sigma, a scalar or
+    (k,), and below TANGENCY_YTOL in t) and NaN where Newton failed or left its box (the
+    caller's bracketed search takes those)."""
+    deg = C.shape[-1] - 1
+    D = _monomial(C, cell, row, offset)
+    powers = np.arange(deg + 1)
+
+    def step(act, xa, ya):
         # rows r_i(y) and their first two y derivatives, then Horner in x
         r0, r1, r2 = horner2(D[act].reshape(-1, deg + 1), np.repeat(ya, deg + 1))
         r0, r1, r2 = (r.reshape(act.size, deg + 1) for r in (r0, r1, r2))
@@ -383,18 +413,9 @@ def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start
         gx = horner(r0[:, 1:] * powers[1:], xa)
         gxy = horner(r1[:, 1:] * powers[1:], xa)
         det = gx * gyy - gy * gxy
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dx = (-g * gyy + gy * gy) / det
-            dy = (-gx * gy + gxy * g) / det
-        x[act], y[act] = xa + dx, ya + dy
-        ok = np.isfinite(dx) & np.isfinite(dy)
-        out = ~ok | (x[act] < xl[act]) | (x[act] > xh[act]) | (y[act] < yl[act]) | (y[act] > yh[act])
-        conv = ok & ~out & (np.abs(dx) <= xtol[act]) & (np.abs(dy) <= TANGENCY_YTOL)
-        x[act[out]] = np.nan
-        done[act[conv]] = True
-        act = act[~conv & ~out]
-    x[~done] = np.nan
-    return s0 + 0.5 * (x + 1.0) * (s1 - s0)
+        return (-g * gyy + gy * gy) / det, (-gx * gy + gxy * g) / det
+
+    return _newton_in_box(cells, cell, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol, step)
 
 
 def level_intersections(C, cells, cell, row1, offset1, row2, offset2, s_lo, s_hi, t_lo, t_hi,
@@ -402,49 +423,26 @@ def level_intersections(C, cells, cell, row1, offset1, row2, offset2, s_lo, s_hi
     """Points where two level curves of the interpolants C (n, 3, d + 1, d + 1) of the cells
     cell (k,) meet: g1 = f_row1 - offset1 = 0 and g2 = f_row2 - offset2 = 0 (a corner of a
     class region, where a level of H meets a level of K), by Newton's method on that pair of
-    polynomial equations (in powers of the cell's local coordinates, as tangency_points),
-    started at (s_start, t_start) and kept in the boxes [s_lo, s_hi] x [t_lo, t_hi] (patch
-    coordinates, all (k,)). Returns sigma (k,) of the converged points (last step below
-    stol in sigma, a scalar or (k,), and below TANGENCY_YTOL in t) and NaN where Newton
+    polynomial equations, started at (s_start, t_start) and kept in the boxes [s_lo, s_hi] x
+    [t_lo, t_hi] (as tangency_points). Returns sigma (k,) of the converged points (last step
+    below stol in sigma, a scalar or (k,), and below TANGENCY_YTOL in t) and NaN where Newton
     failed or left its box."""
     deg = C.shape[-1] - 1
-    M = monomial_matrix(deg)
-    D1 = M.T @ C[cell, row1] @ M
-    D1[:, 0, 0] -= offset1
-    D2 = M.T @ C[cell, row2] @ M
-    D2[:, 0, 0] -= offset2
-    s0, s1 = cells["s0"][cell], cells["s1"][cell]
-    t0, t1 = cells["t0"][cell], cells["t1"][cell]
-    x, y = _local(s_start, s0, s1), _local(t_start, t0, t1)
-    xl, xh = _local(np.minimum(s_lo, s_hi), s0, s1), _local(np.maximum(s_lo, s_hi), s0, s1)
-    yl, yh = _local(np.minimum(t_lo, t_hi), t0, t1), _local(np.maximum(t_lo, t_hi), t0, t1)
-    xtol = 2.0 * np.broadcast_to(stol, x.shape) / (s1 - s0)
+    D1, D2 = _monomial(C, cell, row1, offset1), _monomial(C, cell, row2, offset2)
     powers = np.arange(deg + 1)
-    done = np.zeros(cell.size, bool)
-    act = np.arange(cell.size)
-    for _ in range(TANGENCY_STEPS):
-        if act.size == 0:
-            break
-        xa, ya = x[act], y[act]
+
+    def step(act, xa, ya):
         n = act.size
         # both functions' rows r_i(y) and their y derivatives in one Horner pass, then x
-        r0, r1, _ = horner2(np.concatenate((D1[act], D2[act])).reshape(-1, deg + 1), np.tile(np.repeat(ya, deg + 1), 2))
+        r0, r1, _ = horner2(np.concatenate((D1[act], D2[act])).reshape(-1, deg + 1),
+                            np.tile(np.repeat(ya, deg + 1), 2))
         r0, r1 = r0.reshape(2 * n, deg + 1), r1.reshape(2 * n, deg + 1)
         x2 = np.concatenate((xa, xa))
         g, gy, gx = horner(r0, x2), horner(r1, x2), horner(r0[:, 1:] * powers[1:], x2)
         det = gx[:n] * gy[n:] - gy[:n] * gx[n:]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dx = (-g[:n] * gy[n:] + g[n:] * gy[:n]) / det
-            dy = (-g[n:] * gx[:n] + g[:n] * gx[n:]) / det
-        x[act], y[act] = xa + dx, ya + dy
-        ok = np.isfinite(dx) & np.isfinite(dy)
-        out = ~ok | (x[act] < xl[act]) | (x[act] > xh[act]) | (y[act] < yl[act]) | (y[act] > yh[act])
-        conv = ok & ~out & (np.abs(dx) <= xtol[act]) & (np.abs(dy) <= TANGENCY_YTOL)
-        x[act[out]] = np.nan
-        done[act[conv]] = True
-        act = act[~conv & ~out]
-    x[~done] = np.nan
-    return s0 + 0.5 * (x + 1.0) * (s1 - s0)
+        return (-g[:n] * gy[n:] + g[n:] * gy[:n]) / det, (-g[n:] * gx[:n] + g[:n] * gx[n:]) / det
+
+    return _newton_in_box(cells, cell, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol, step)
 
 
 @functools.lru_cache(maxsize=None)
@@ -471,9 +469,8 @@ def interpolant_range(C, cell, row):
     """Bounds lo, hi (k,) of the interpolants' row (0 J, 1 K, 2 H) over their cells cell (k,):
     the least and largest tensor Bernstein coefficient (the polynomial in the cell's local
     coordinates lies in their convex hull)."""
-    deg = C.shape[-1] - 1
-    M, T = monomial_matrix(deg), bernstein_matrix(deg)
-    B = T @ (M.T @ C[cell, row] @ M) @ T.T
+    T = bernstein_matrix(C.shape[-1] - 1)
+    B = T @ _monomial(C, cell, row) @ T.T
     return B.min((1, 2)), B.max((1, 2))
 
 
@@ -484,8 +481,8 @@ EXTREMUM_STEPS = 6
 
 def interpolant_extremum(C, cell, row, sign):
     """The largest value of sign * (the interpolants' row) over their cells cell (k,) (sign:
-    +1 or -1, scalar or (k,)) as far as a search finds it: the best point of an EXTREMUM_GRID x EXTREMUM_GRID grid in the
-    cell's local coordinates, then up to EXTREMUM_STEPS Newton steps on the gradient (kept
+    +1 or -1, scalar or (k,)) as far as a search finds it: the best point of an
+    EXTREMUM_GRID x EXTREMUM_GRID grid in the cell's local coordinates, then up to EXTREMUM_STEPS Newton steps on the gradient (kept
     where they improve the value and stay in [-1, 1]^2). Returns value (k,) (of the row,
     sign included) and local coordinates x, y (k,) of the point."""
     deg = C.shape[-1] - 1
@@ -497,8 +494,7 @@ def interpolant_extremum(C, cell, row, sign):
     best = G.reshape(k, -1).argmax(1)
     x, y = z[best // EXTREMUM_GRID], z[best % EXTREMUM_GRID]
     val = G.reshape(k, -1)[np.arange(k), best]
-    M = monomial_matrix(deg)
-    D = sign[:, None, None] * (M.T @ C[cell, row] @ M)  # sum_ij D_ij x^i y^j
+    D = sign[:, None, None] * _monomial(C, cell, row)  # sum_ij D_ij x^i y^j
     pw = np.arange(deg + 1)
     for _ in range(EXTREMUM_STEPS):
         r0, r1, r2 = horner2(D.reshape(-1, deg + 1), np.repeat(y, deg + 1))

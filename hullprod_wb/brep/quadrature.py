@@ -443,6 +443,13 @@ def _halve_pieces(pc, mask, err):
                 perr=np.repeat(err[mask], 2), sib=np.repeat(np.nonzero(mask)[0], 2))
 
 
+def _inside_pieces(pc, piece, at):
+    """Whether the sigma values at (k,) lie inside the pieces piece (k,) of pc, farther than
+    EDGE_XI of their width from both ends (a cut there would leave a needless sliver)."""
+    w = pc["sb"][piece] - pc["sa"][piece]
+    return (at > pc["sa"][piece] + EDGE_XI * w) & (at < pc["sb"][piece] - EDGE_XI * w)
+
+
 def _share_area_error(err, Q):
     """err (n, 9) with the class areas' columns set to the area's error shared by each
     cell's class fractions (from its integrals Q (n, 9)): outside mixed cells a class area
@@ -1286,7 +1293,7 @@ class _Integrator:
         if k.size:
             root[k] = solve_bracketed(lambda x, m: phi(x, i[k[m]]), sm[i[k]], so[i[k]], fm[i[k]], fo[i[k]],
                                       TANGENT_RTOL * w[k], maxiter=TANGENT_STEPS)
-        inside = (root > pc["sa"][p[i]] + EDGE_XI * w) & (root < pc["sb"][p[i]] - EDGE_XI * w)
+        inside = _inside_pieces(pc, p[i], root)
         return p[i][inside], root[inside]
 
     def _corner_cuts(self, pc, sig, count, ends, series):
@@ -1327,17 +1334,16 @@ class _Integrator:
             return i, np.empty(0)
         qh = h + 2
         pa, pb = psi[i, j, qk, e, h], psi[i, j + 1, qk, e, h]
-        w = pa / (pa - pb)
+        frac = pa / (pa - pb)  # where psi interpolates to zero between the lines
         p = p[i]
         sa, sb = sig[p, j], sig[p, j + 1]
-        s_start = sa + w * (sb - sa)
-        t_start = tk[i, j, qk, e] + w * (tk[i, j + 1, qk, e] - tk[i, j, qk, e])
+        s_start = sa + frac * (sb - sa)
+        t_start = tk[i, j, qk, e] + frac * (tk[i, j + 1, qk, e] - tk[i, j, qk, e])
         c = cell[p]
         root = level_intersections(self._interp["C"], cells, c, LEVEL_ROW[qh], self.level_offset[qh],
                                    LEVEL_ROW[qk], self.level_offset[qk], sa, sb, cells["t0"][c], cells["t1"][c],
                                    s_start, t_start, TANGENT_RTOL * (pc["sb"] - pc["sa"])[p])
-        w = (pc["sb"] - pc["sa"])[p]
-        inside = (root > pc["sa"][p] + EDGE_XI * w) & (root < pc["sb"][p] - EDGE_XI * w)
+        inside = _inside_pieces(pc, p, root)
         return p[inside], root[inside]
 
     def _island_cuts(self, pc, F):
@@ -1378,11 +1384,9 @@ class _Integrator:
             return np.empty(0, int), np.empty(0)
         at = cells["s0"][cell] + 0.5 * (x + 1.0) * (cells["s1"][cell] - cells["s0"][cell])
         # the piece of each cell that holds the point, away from its ends
-        w = pc["sb"] - pc["sa"]
-        m = (pc["cell"][None, :] == cell[:, None]) & (at[:, None] > pc["sa"] + EDGE_XI * w) \
-            & (at[:, None] < pc["sb"] - EDGE_XI * w)
-        i, p = np.nonzero(m)
-        return p, at[i]
+        i, p = np.nonzero(pc["cell"][None, :] == cell[:, None])
+        inside = _inside_pieces(pc, p, at[i])
+        return p[inside], at[i][inside]
 
     def _turn_cells(self, cells, interpolants):
         """The mixed cells with their lines turned where that suits the level curves: a cell
