@@ -55,13 +55,13 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
     # with one process asked for (jobs=1, a batch worker's HULLPROD_JOBS=1) everything runs
     # here: a process that loads FreeCAD once for many files reads them itself
     if isinstance(source, (str, os.PathLike)):
-        from .brep.face_pool import fork_is_safe, resolve_jobs
+        from .brep.face_pool import second_process_allowed
         from .brep.plain_records import ReadInChild, reads_in_child
         if reads_in_child(options.get("jobs")):
             # a child reads the file and sends its plain records while this process loads
             # numpy and the backend (brep.plain_records); FreeCAD is never loaded here
             source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
-        elif fork_is_safe() and resolve_jobs(options.get("jobs"), 2) > 1:
+        elif second_process_allowed(options.get("jobs")):
             # FreeCAD is loaded here: read the file and start its L_ref tessellation beside
             # the loading of the backend
             from .brep.lref_samples import read_and_start

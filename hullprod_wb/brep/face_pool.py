@@ -83,6 +83,12 @@ def resolve_jobs(jobs, n_faces):
     return max(1, min(available_cpus() if jobs is None else jobs, n_faces))
 
 
+def second_process_allowed(jobs=None):
+    """Whether work may go to a second process beside this one: forking is safe here and
+    jobs (resolve_jobs; None: automatic) allows more than one process."""
+    return fork_is_safe() and resolve_jobs(jobs, 2) > 1
+
+
 def _run_one(index):
     return _WORK(index)
 

@@ -281,12 +281,11 @@ def display_mesh(face, deflection):
 
 def reads_in_child(jobs=None):
     """Whether a BRep file named by its path is read by a ReadInChild in this process
-    (api.assess; cli.early_reading starts it earlier): forking is safe here
-    (face_pool.fork_is_safe), more than one process is allowed (jobs, $HULLPROD_JOBS:
-    face_pool.resolve_jobs), and FreeCAD is not loaded here (a process that has it reads
-    files itself)."""
-    from .face_pool import fork_is_safe, resolve_jobs
-    return "FreeCAD" not in sys.modules and fork_is_safe() and resolve_jobs(jobs, 2) > 1
+    (api.assess; cli.early_reading starts it earlier): FreeCAD is not loaded here (a
+    process that has it reads files itself) and a second process is allowed (jobs,
+    $HULLPROD_JOBS: face_pool.second_process_allowed)."""
+    from .face_pool import second_process_allowed
+    return "FreeCAD" not in sys.modules and second_process_allowed(jobs)
 
 
 class ReadInChild:
