@@ -468,10 +468,16 @@ def bernstein_matrix(deg):
 def interpolant_range(C, cell, row):
     """Bounds lo, hi (k,) of the interpolants' row (0 J, 1 K, 2 H) over their cells cell (k,):
     the least and largest tensor Bernstein coefficient (the polynomial in the cell's local
-    coordinates lies in their convex hull)."""
-    T = bernstein_matrix(C.shape[-1] - 1)
-    B = T @ _monomial(C, cell, row) @ T.T
-    return B.min((1, 2)), B.max((1, 2))
+    coordinates lies in their convex hull), widened by the rounding of the conversions
+    (4 (d + 1) eps times the coefficients computed from absolute values), so that the
+    bounds hold in floating point too."""
+    deg = C.shape[-1] - 1
+    T = bernstein_matrix(deg)
+    M = _monomial(C, cell, row)
+    B = T @ M @ T.T
+    aT = np.abs(T)
+    pad = (4.0 * (deg + 1) * np.finfo(float).eps) * (aT @ np.abs(M) @ aT.T)
+    return (B - pad).min((1, 2)), (B + pad).max((1, 2))
 
 
 #: Grid of the search for an interpolant's extremum (per local axis), and Newton steps after it.
