@@ -229,8 +229,9 @@ def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
     The lines are cut at those corners (_Integrator._corner_cuts: found along the crossings
     of K = +-tau_K, refined on the interpolant by Newton): the class areas match the
     reference to 1e-10 (straight bands: the interpolants are exact; curved ones: Newton on
-    degree-9 series). Without the cuts the straight case's flat region, between the first
-    level's lines, is missed altogether (A_flat 0)."""
+    degree-9 series). Without the cuts, and from the whole square as the first cell, the
+    straight case's flat region, between the first level's lines, is missed altogether
+    (A_flat 0)."""
     import hullprod_wb.brep.quadrature as quadrature
     tH, tK = 0.05, 0.02
     if curved:
@@ -270,6 +271,7 @@ def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
         assert abs(r.values[q] - v) <= r.errors[q], q
     if not curved:
         monkeypatch.setattr(quadrature._Integrator, "_corner_cuts", lambda self, pc, *a: (np.empty(0, int), np.empty(0)))
+        monkeypatch.setattr(quadrature, "MIN_INITIAL_CELLS", 1)
         s = integrate(d, f, tH, tK)
         assert s.values["A_flat"] == 0.0
 
@@ -306,11 +308,16 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
         return out
 
     monkeypatch.setattr(quadrature._Integrator, "_island_cuts", record)
-    r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, tK)
-    assert sum(cuts) >= 1
-    for q, v in exact.items():
-        assert r.values[q] == pytest.approx(v, abs=1e-9), q
-        assert abs(r.values[q] - v) <= r.errors[q] + 1e-15, q
+    # from the whole square as the first cell, the island lies between the lines of a mixed
+    # cell and is found by the search; from the default first cells as well (lines or search)
+    for first_cells in (1, quadrature.MIN_INITIAL_CELLS):
+        monkeypatch.setattr(quadrature, "MIN_INITIAL_CELLS", first_cells)
+        cuts.clear()
+        r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, tK)
+        assert sum(cuts) >= (1 if first_cells == 1 else 0)
+        for q, v in exact.items():
+            assert r.values[q] == pytest.approx(v, abs=1e-9), q
+            assert abs(r.values[q] - v) <= r.errors[q] + 1e-15, q
         assert r.converged[q], q
 
 
@@ -330,6 +337,32 @@ def test_integrable_corner_singularity_converges():
     r5 = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, TAU_K)
     assert not r5.converged["A"] and r5.recheck is not None
     assert len(r5.unconverged_cells) and np.all(r5.unconverged_cells[:, [0, 2]] == 0.0)
+
+
+def test_few_patches_start_from_halved_cells(monkeypatch):
+    """An integration of fewer than MIN_INITIAL_CELLS patches starts from the patches halved
+    in both directions (at most to level max_depth - 1); those levels count as done, so the
+    deepest level stays max_depth, and the refinement sequence repeats the first cells'
+    estimate for them. The integrals agree with those from the whole patch as the first
+    cell to within the error estimates, here with fewer field points."""
+    import hullprod_wb.brep.quadrature as quadrature
+    assert quadrature.MIN_INITIAL_CELLS == 16
+    c, R = np.array([0.53, 0.47]), 0.3
+    f = field_of(lambda u, v: 1.0 + 0.2 * u * v, lambda u, v: (u - c[0]) ** 2 + (v - c[1]) ** 2 - R * R,
+                 lambda u, v: 0.5 + 0.0 * u)
+    d = TrimmedDomain.rectangle(0, 1, 0, 1)
+    for max_depth, cells, level in ((5, 16, 2), (2, 4, 1), (1, 1, 0)):
+        r = integrate(d, f, TAU_H, TAU_K, max_depth=max_depth, recheck=False)
+        assert r.n_initial_cells == cells and r.depth_reached <= max_depth
+        assert len(r.history) == r.depth_reached + 1
+        assert all(h == r.history[0] for h in r.history[:level + 1])
+    new = integrate(d, f, TAU_H, TAU_K)
+    monkeypatch.setattr(quadrature, "MIN_INITIAL_CELLS", 1)
+    old = integrate(d, f, TAU_H, TAU_K)
+    assert old.n_initial_cells == 1 and new.all_converged and old.all_converged
+    for q in QUANTITIES:
+        assert abs(new.values[q] - old.values[q]) <= new.errors[q] + old.errors[q], q
+    assert new.n_points < old.n_points
 
 
 def test_oscillating_field_is_not_converged_at_depth_2():
@@ -770,11 +803,13 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     plain = integrate(d, f, TAU_H, TAU_K)
     own = []
     import hullprod_wb.brep.quadrature as quadrature
-    monkeypatch.setattr(quadrature, "PREFETCH_CELLS", 3)  # the patch, then its 4 children in 2 steps
-    for levels, steps in ((0, 0), (1, 1), (2, 3)):
+    monkeypatch.setattr(quadrature, "PREFETCH_CELLS", 3)  # the first cells, then their children
+    n0 = NodePrefetch(d, f, 5).cells[0]["pid"].size
+    s0, s1 = -(-n0 // 3), -(-4 * n0 // 3)  # steps of each level
+    for levels, steps in ((0, 0), (1, s0), (2, s0 + s1)):
         p = NodePrefetch(d, f, 5)
         for k in range(steps):
-            assert p.step() == (k < 2)
+            assert p.step() == (k < s0 + s1 - 1)
         assert len(p.values) == levels
         calls.clear()
         r = integrate(d, f, TAU_H, TAU_K, prefetch=p)
@@ -783,6 +818,10 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
         assert r.n_points == plain.n_points  # nothing accepted on its own here: nothing in vain
     assert own[0] == plain.n_points and own[0] > own[1] > own[2]
     p = NodePrefetch(d, f, 4)
+    with pytest.raises(InputError, match="prefetched"):
+        integrate(d, f, TAU_H, TAU_K, prefetch=p)
+    p = NodePrefetch(d, f, 5, max_depth=2)  # first cells of another max_depth
+    assert p.cells[0]["pid"].size < n0
     with pytest.raises(InputError, match="prefetched"):
         integrate(d, f, TAU_H, TAU_K, prefetch=p)
 

@@ -280,16 +280,16 @@ class FaceSetup:
         except _NeedsPartFace:
             return None
 
-    def prefetch_until(self, done, order, groups):
+    def prefetch_until(self, done, order, groups, max_depth):
         """The field at the nodes of the first two quadtree levels of the face's integration,
         of each of its patch groups when groups (quadrature.NodePrefetch: the field alone, no
         thresholds), level by level until done() (L_ref has arrived); assess_face uses them."""
         if done():
             return
         ranges = patch_groups(self.patches.size) if groups else [None]
-        self.prefetch = [NodePrefetch(self.domain, self.main_field, order, self.gu, self.gv, r, self.patches)
-                         for r in ranges]
-        for level in range(2):  # the groups' patches, then their children
+        self.prefetch = [NodePrefetch(self.domain, self.main_field, order, self.gu, self.gv, r, self.patches,
+                                      max_depth) for r in ranges]
+        for level in range(2):  # the groups' first cells, then their children
             for p in self.prefetch:
                 while len(p.values) <= level:
                     if done():
@@ -610,7 +610,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces]
         if recorded:  # and the field at the first quadtree levels, while L_ref is on its way
             for s in setups:
-                s.prefetch_until(inp.lref_ready, opts["order"], groups)
+                s.prefetch_until(inp.lref_ready, opts["order"], groups, opts["max_depth"])
     else:
         setups = set_up_until(inp.lref_ready if recorded else None, [f for _, f in inp.faces], cost,
                               cross_checks)

@@ -152,6 +152,14 @@ INTERPOLANT_SHARE = 0.1
 #: faces are), which processes can share (see patch_groups).
 GROUPS = 2
 GROUP_MIN_PATCHES = 256
+#: An integration starts from at least MIN_INITIAL_CELLS cells: the patches, halved in both
+#: directions as often as needed (at most to one level above max_depth; the levels so
+#: skipped count as done, so max_depth keeps its meaning: levels below the patches). Each
+#: quadtree level whose cells are integrated on lines costs a pass of several milliseconds
+#: whatever its number of cells, and a cell of a quarter of a curved face or more is hardly
+#: ever accepted: on a face of one to a few patches the first levels cost such passes for a
+#: handful of cells.
+MIN_INITIAL_CELLS = 16
 #: Cells a step of NodePrefetch evaluates (a few milliseconds).
 PREFETCH_CELLS = 256
 #: Number of candidate cells of largest |K| J kept for the singular-point audit.
@@ -168,15 +176,17 @@ class QuadratureResult:
     finite candidates, also where not converged. converged: dict quantity -> bool, error
     estimate within tolerance at depth <= max_depth. n_points: field points evaluated;
     n_field_calls; depth_reached: deepest quadtree level evaluated; n_cells: leaf cells;
-    n_initial_cells: patches; n_mixed_cells: cells integrated on lines. nonregular_uv
-    (m, 2): (u, v) of sampled non-regular points (at most MAX_NONREGULAR; n_nonregular
-    counts all). unconverged_cells (k, 4): [u_min, u_max, v_min, v_max] of cells left
+    n_initial_cells: the first cells (the patches, halved up to MIN_INITIAL_CELLS);
+    n_mixed_cells: cells integrated on lines. nonregular_uv (m, 2): (u, v) of sampled
+    non-regular points (at most MAX_NONREGULAR; n_nonregular counts all). unconverged_cells (k, 4): [u_min, u_max, v_min, v_max] of cells left
     unresolved at the final depth. peak_KJ (N_PEAKS, 3): (u, v, |K| J) of the samples of
     largest |K| J, one per cell, largest first (candidate singular points). recheck: the
     integration continued one level deeper (paper section 5.2) when something did not
     converge and recheck was requested, else None. history: the global estimate of every
-    quantity after each quadtree level (level 0: the patches' own Gauss sums; level d:
-    accepted cells plus the Gauss sums of the cells still refined), a list of dicts
+    quantity after each quadtree level (level 0: the patches' own Gauss sums, or those of the
+    first cells where the patches were halved before (their level's estimate stands for the
+    levels above it); level d: accepted cells plus the Gauss sums of the cells still
+    refined), a list of dicts
     quantity -> float: the refinement sequence of the stability rule (section 5.2).
     zero_resolved: crossings of K = 0 cut the lines of mixed cells (else the bounds charged
     instead, zero_charge, within ZERO_CHARGE_SHARE of the K integrals' tolerances, are part
@@ -459,9 +469,11 @@ def _share_area_error(err, Q):
     return err
 
 
-def _patch_cells(patches, patch_range=None):
-    """The quadtree's first cells (dict of (n,) pid, s0, s1, t0, t1): the whole of each patch
-    of patch_range (start, stop) (default all), InputError when it holds none."""
+def _patch_cells(patches, patch_range=None, max_depth=None):
+    """The quadtree's first cells (dict of (n,) pid, s0, s1, t0, t1) and their level: the
+    whole of each patch of patch_range (start, stop) (default all), at level 0, halved in
+    both directions (_children) until there are MIN_INITIAL_CELLS of them, at most to level
+    max_depth - 1 (None: no halving); InputError when the range holds no patch."""
     pid = np.arange(patches.size)
     if patch_range is not None:
         pid = pid[slice(*patch_range)]
@@ -469,7 +481,10 @@ def _patch_cells(patches, patch_range=None):
             raise InputError("patch range %r holds none of the domain's %d patches"
                              % (tuple(patch_range), patches.size))
     z, o = np.zeros(pid.size), np.ones(pid.size)
-    return dict(pid=pid, s0=z, s1=o, t0=z, t1=o)
+    cells, level = dict(pid=pid, s0=z, s1=o, t0=z, t1=o), 0
+    while max_depth is not None and cells["pid"].size < MIN_INITIAL_CELLS and level < max_depth - 1:
+        cells, level = _children(cells), level + 1
+    return cells, level
 
 
 def _children(a):
@@ -485,8 +500,8 @@ def _children(a):
 
 
 class NodePrefetch:
-    """The field at the Gauss nodes of the first two quadtree levels of an integration (the
-    patches, then the four children of each), evaluated before the class thresholds are
+    """The field at the Gauss nodes of the first two quadtree levels of an integration (its
+    first cells, then the four children of each), evaluated before the class thresholds are
     known (they depend on L_ref, which may still be on its way): integrate(prefetch=...)
     takes these values, and the nodes' cell_nodes geometry, instead of computing them again,
     so its results are the same to the bit. step() evaluates the next PREFETCH_CELLS cells and tells whether any are
@@ -495,12 +510,14 @@ class NodePrefetch:
     integration's n_points count the values it takes over (the same count as without a
     prefetch). Arguments as integrate's; patches: the domain's Patches when already made."""
 
-    def __init__(self, domain, field, order=5, u_breaks=(), v_breaks=(), patch_range=None, patches=None):
+    def __init__(self, domain, field, order=5, u_breaks=(), v_breaks=(), patch_range=None, patches=None,
+                 max_depth=5):
         self.f = _Field(field)
         self.order = int(order)
         self.x, _ = gauss_nodes(self.order)
         self.patches = patches if patches is not None else Patches.of(domain, u_breaks, v_breaks)
-        self.cells = [_patch_cells(self.patches, patch_range)]
+        self.max_depth = int(max_depth)
+        self.cells = [_patch_cells(self.patches, patch_range, self.max_depth)[0]]
         self.cells.append(_children(self.cells[0]))
         self.values = []  # per level evaluated: J, K, H, regular (n, o, o)
         self.nodes = []  # and its nodes: U, V (n, o, o), du, lo, hi (n, o) (cell_nodes)
@@ -540,7 +557,7 @@ class _Integrator:
     the values, or the lines for the LINE_Q quantities of mixed cells."""
 
     def __init__(self, domain, field, tau_H, tau_K, order, rtol, class_max_depth, u_breaks,
-                 v_breaks, progress, patch_range=None, prefetch=None):
+                 v_breaks, progress, patch_range=None, prefetch=None, max_depth=None):
         self.prefetch = prefetch
         self.f = _Field(field)
         self.tau_H, self.tau_K = tau_H, tau_K
@@ -559,23 +576,25 @@ class _Integrator:
         self.w_embedded = embedded_weights(self.x)
         self._grid_inverse, self._parent_vander = grid_matrices(self.x)
         self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
-        self.active = _patch_cells(self.patches, patch_range)
+        self.active, level = _patch_cells(self.patches, patch_range, max_depth)
         pid = self.active["pid"]
-        if prefetch is not None and (prefetch.order != order or not np.array_equal(prefetch.cells[0]["pid"], pid)):
-            raise InputError("the prefetched nodes are of another order or patch range")
+        if prefetch is not None and (prefetch.order != order or not all(
+                np.array_equal(prefetch.cells[0][k], self.active[k]) for k in ("pid", "s0", "t0"))):
+            raise InputError("the prefetched nodes are of another order, patch range or max_depth")
         P = pid.size
         self.n_initial = P
         self.nonregular = []
         self.n_nonregular = 0
         self.accepted = []  # dicts of arrays of accepted units, one per level
         self.err_acc = np.zeros(NQ)
-        self.depth = 0
+        self.depth = level
         self.pending = None  # units left unaccepted at the last level
         self.active.update(self._eval_cells(self.active, self._prefetched(0)))
         if prefetch is not None:
             self.active["row"] = np.arange(P)  # the patch of each active cell (_prefetched)
         self.history = []
         self._record_level()
+        self.history *= level + 1  # the levels above the first cells': their estimate
 
     def _record_level(self):
         """Append the global estimate (accepted cells plus active cells' Gauss sums)."""
@@ -1664,7 +1683,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
                          ">= 0, got %r, %r, %r" % (order, max_depth, class_max_depth))
     start = time.perf_counter()
     it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
-                     u_breaks, v_breaks, progress, patch_range, prefetch)
+                     u_breaks, v_breaks, progress, patch_range, prefetch, int(max_depth))
     it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
     it.lines = bool(lines)
     it.refine_to(int(max_depth))
