@@ -12,7 +12,9 @@ trim curves' crossings of the knot lines), on which the integrands are smooth, s
 Gauss-Legendre converges fast on the exact trimmed region.
 
 Quadtree. Tensor Gauss-Legendre of the given order on cells of a quadtree over each patch;
-all cells of a level are evaluated in one field call. A cell that meets no class boundary
+all cells of a level are evaluated in one field call. A domain of fewer than
+MIN_INITIAL_CELLS patches starts from the patches halved in both directions (those levels
+count as done: max_depth stays the number of levels below the patches). A cell that meets no class boundary
 is accepted on its own Gauss sums when the difference to the embedded lower-degree rule on
 the same nodes (gauss_rules.embedded_weights) fits OWN_SAFETY of the budget; otherwise its
 four children are evaluated. Error estimate of a parent cell: |Q(cell) - sum of Q over its
