@@ -14,12 +14,12 @@ Gauss-Legendre converges fast on the exact trimmed region.
 Quadtree. Tensor Gauss-Legendre of the given order on cells of a quadtree over each patch;
 all cells of a level are evaluated in one field call. A domain of fewer than
 MIN_INITIAL_CELLS patches starts from the patches halved in both directions (those levels
-count as done: max_depth stays the number of levels below the patches). A cell that meets no class boundary
-is accepted on its own Gauss sums when the difference to the embedded lower-degree rule on
-the same nodes (gauss_rules.embedded_weights) fits OWN_SAFETY of the budget; otherwise its
-four children are evaluated. Error estimate of a parent cell: |Q(cell) - sum of Q over its
-4 children| (coarse against fine resolution; it estimates the coarse
-rule's error, so it is conservative for the children's sum, which is what is kept). The
+count as done: max_depth stays the number of levels below the patches). A cell that meets
+no class boundary is accepted on its own Gauss sums when the difference to the embedded
+lower-degree rule on the same nodes (gauss_rules.embedded_weights) fits OWN_SAFETY of the
+budget; otherwise its four children are evaluated. Error estimate of a parent cell:
+|Q(cell) - sum of Q over its 4 children| (coarse against fine resolution; it estimates the
+coarse rule's error, so it is conservative for the children's sum, which is what is kept). The
 tolerance of quantity q is tol_q = rtol max(|Q_q|, ZERO_SCALE s_q, reference_q), s_q = A
 for areas and tau_K A for K integrals. A level whose accepted plus new error estimates fit
 every tol_q ends the refinement. Otherwise the candidates are the cells that fit, greedily
@@ -180,8 +180,8 @@ class QuadratureResult:
     n_field_calls; depth_reached: deepest quadtree level evaluated; n_cells: leaf cells;
     n_initial_cells: the first cells (the patches, halved up to MIN_INITIAL_CELLS);
     n_mixed_cells: cells integrated on lines. nonregular_uv (m, 2): (u, v) of sampled
-    non-regular points (at most MAX_NONREGULAR; n_nonregular counts all). unconverged_cells (k, 4): [u_min, u_max, v_min, v_max] of cells left
-    unresolved at the final depth. peak_KJ (N_PEAKS, 3): (u, v, |K| J) of the samples of
+    non-regular points (at most MAX_NONREGULAR; n_nonregular counts all). unconverged_cells
+    (k, 4): [u_min, u_max, v_min, v_max] of cells left unresolved at the final depth. peak_KJ (N_PEAKS, 3): (u, v, |K| J) of the samples of
     largest |K| J, one per cell, largest first (candidate singular points). recheck: the
     integration continued one level deeper (paper section 5.2) when something did not
     converge and recheck was requested, else None. history: the global estimate of every
@@ -593,7 +593,7 @@ class _Integrator:
         self.pending = None  # units left unaccepted at the last level
         self.active.update(self._eval_cells(self.active, self._prefetched(0)))
         if prefetch is not None:
-            self.active["row"] = np.arange(P)  # the patch of each active cell (_prefetched)
+            self.active["row"] = np.arange(P)  # the first cell of each active cell (_prefetched)
         self.history = []
         self._record_level()
         self.history *= level + 1  # the levels above the first cells': their estimate
@@ -622,8 +622,9 @@ class _Integrator:
 
     def _prefetched(self, level, rows=None):
         """(J, K, H, regular (n, o, o), and the nodes U, V, du, lo, hi as cell_nodes gives
-        them) of quadtree level 0 (the patches) or 1 (the children of the patches rows (m,),
-        n = 4 m) from the NodePrefetch, None when it has not evaluated that level."""
+        them) of the prefetched level 0 (the first cells) or 1 (the children of the first
+        cells rows (m,), n = 4 m) from the NodePrefetch, None when it has not evaluated that
+        level."""
         p = self.prefetch
         if p is None or len(p.values) <= level or (level > 0 and rows is None):
             return None
