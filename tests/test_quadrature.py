@@ -318,7 +318,7 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
         for q, v in exact.items():
             assert r.values[q] == pytest.approx(v, abs=1e-9), q
             assert abs(r.values[q] - v) <= r.errors[q] + 1e-15, q
-        assert r.converged[q], q
+            assert r.converged[q], q
 
 
 def test_integrable_corner_singularity_converges():
