@@ -359,6 +359,13 @@ def _monomial(C, cell, row, offset=None):
     return D
 
 
+def _rows_in_y(D, y):
+    """The rows r_i(y) = sum_j D_ij y^j of the power series D (k, d + 1, d + 1) at y (k,), and
+    their first two y derivatives: three (k, d + 1) arrays, in one Horner pass."""
+    k, rows, n = D.shape
+    return tuple(r.reshape(k, rows) for r in horner2(D.reshape(-1, n), np.repeat(y, rows)))
+
+
 def _newton_in_box(cells, cell, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol, step):
     """Newton iterations in the cells' local coordinates (x, y) from (s_start, t_start),
     kept in the boxes [s_lo, s_hi] x [t_lo, t_hi] (patch coordinates, all (k,)): step(act,
@@ -404,9 +411,7 @@ def tangency_points(C, cells, cell, row, offset, s_lo, s_hi, t_lo, t_hi, s_start
     powers = np.arange(deg + 1)
 
     def step(act, xa, ya):
-        # rows r_i(y) and their first two y derivatives, then Horner in x
-        r0, r1, r2 = horner2(D[act].reshape(-1, deg + 1), np.repeat(ya, deg + 1))
-        r0, r1, r2 = (r.reshape(act.size, deg + 1) for r in (r0, r1, r2))
+        r0, r1, r2 = _rows_in_y(D[act], ya)  # then Horner in x
         g = horner(r0, xa)
         gy = horner(r1, xa)
         gyy = horner(r2, xa)
@@ -488,8 +493,9 @@ EXTREMUM_STEPS = 6
 def interpolant_extremum(C, cell, row, sign):
     """The largest value of sign * (the interpolants' row) over their cells cell (k,) (sign:
     +1 or -1, scalar or (k,)) as far as a search finds it: the best point of an
-    EXTREMUM_GRID x EXTREMUM_GRID grid in the cell's local coordinates, then up to EXTREMUM_STEPS Newton steps on the gradient (kept
-    where they improve the value and stay in [-1, 1]^2). Returns value (k,) (of the row,
+    EXTREMUM_GRID x EXTREMUM_GRID grid in the cell's local coordinates, then up to
+    EXTREMUM_STEPS Newton steps on the gradient (kept where they improve the value and stay
+    in [-1, 1]^2). Returns value (k,) (of the row,
     sign included) and local coordinates x, y (k,) of the point."""
     deg = C.shape[-1] - 1
     k = cell.size
@@ -503,8 +509,7 @@ def interpolant_extremum(C, cell, row, sign):
     D = sign[:, None, None] * _monomial(C, cell, row)  # sum_ij D_ij x^i y^j
     pw = np.arange(deg + 1)
     for _ in range(EXTREMUM_STEPS):
-        r0, r1, r2 = horner2(D.reshape(-1, deg + 1), np.repeat(y, deg + 1))
-        r0, r1, r2 = (r.reshape(k, deg + 1) for r in (r0, r1, r2))
+        r0, r1, r2 = _rows_in_y(D, y)
         gx = horner(r0[:, 1:] * pw[1:], x)
         gy = horner(r1, x)
         gxx = horner(r0[:, 2:] * (pw[2:] * pw[1:-1]), x)
