@@ -181,15 +181,15 @@ class QuadratureResult:
     n_initial_cells: the first cells (the patches, halved up to MIN_INITIAL_CELLS);
     n_mixed_cells: cells integrated on lines. nonregular_uv (m, 2): (u, v) of sampled
     non-regular points (at most MAX_NONREGULAR; n_nonregular counts all). unconverged_cells
-    (k, 4): [u_min, u_max, v_min, v_max] of cells left unresolved at the final depth. peak_KJ (N_PEAKS, 3): (u, v, |K| J) of the samples of
-    largest |K| J, one per cell, largest first (candidate singular points). recheck: the
+    (k, 4): [u_min, u_max, v_min, v_max] of cells left unresolved at the final depth.
+    peak_KJ (N_PEAKS, 3): (u, v, |K| J) of the samples of largest |K| J, one per cell,
+    largest first (candidate singular points). recheck: the
     integration continued one level deeper (paper section 5.2) when something did not
     converge and recheck was requested, else None. history: the global estimate of every
     quantity after each quadtree level (level 0: the patches' own Gauss sums, or those of the
     first cells where the patches were halved before (their level's estimate stands for the
     levels above it); level d: accepted cells plus the Gauss sums of the cells still
-    refined), a list of dicts
-    quantity -> float: the refinement sequence of the stability rule (section 5.2).
+    refined), a list of dicts quantity -> float: the refinement sequence of the stability rule (section 5.2).
     zero_resolved: crossings of K = 0 cut the lines of mixed cells (else the bounds charged
     instead, zero_charge, within ZERO_CHARGE_SHARE of the K integrals' tolerances, are part
     of their error estimates; see _Integrator._line_values).
@@ -518,8 +518,7 @@ class NodePrefetch:
         self.order = int(order)
         self.x, _ = gauss_nodes(self.order)
         self.patches = patches if patches is not None else Patches.of(domain, u_breaks, v_breaks)
-        self.max_depth = int(max_depth)
-        self.cells = [_patch_cells(self.patches, patch_range, self.max_depth)[0]]
+        self.cells = [_patch_cells(self.patches, patch_range, int(max_depth))[0]]
         self.cells.append(_children(self.cells[0]))
         self.values = []  # per level evaluated: J, K, H, regular (n, o, o)
         self.nodes = []  # and its nodes: U, V (n, o, o), du, lo, hi (n, o) (cell_nodes)
