@@ -746,9 +746,9 @@ def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch
     crossings = quadrature._Integrator._crossings
     found = []  # refined crossings on lines
 
-    def record(self, evalf, x0, x1, refine=True):
-        out = crossings(self, evalf, x0, x1, refine)
-        refined = np.broadcast_to(refine, x0.shape)  # per line: crossings refined, not only counted
+    def record(self, evalf, refine=True):
+        out = crossings(self, evalf, refine)
+        refined = np.broadcast_to(refine, evalf.x0.shape)  # per line: crossings refined, not only counted
         found.append(int(np.count_nonzero(refined[out[0]])))
         return out
 
@@ -903,6 +903,27 @@ def test_segment_series_roots_and_exact_integrals():
         for row in range(3):
             ref = leg.legval(z, seg.coef[s, row])
             assert np.allclose(poly.polyval(z, seg.power[s, row]), ref, rtol=1e-12, atol=1e-12)
+    # every segment at common fractions of its range (one product), as point by point; the
+    # segments of a cell without interpolant (use False) through the fallback, at the same x
+    zs = np.array([0.02, 0.3, 0.5, 0.97])
+    x_at = lambda f: (np.array([0.0, 0.0, 0.0])[:, None] + 2.0 * f[None, :]).ravel()
+    J, K, H, reg = seg.samples(zs)
+    pJ, pK, pH, preg = seg(x_at(zs), np.repeat(np.arange(3), zs.size))
+    for a, b in ((J, pJ), (K, pK), (H, pH)):
+        assert np.allclose(a, b, rtol=1e-13, atol=1e-13)
+    assert reg.all() and preg.all()
+    seen = []
+
+    def fallback(x, i):
+        seen.append((x.copy(), i.copy()))
+        return x, 2.0 * x, 3.0 * x, x < 1.5
+
+    mixed = SegmentField(C, np.array([False]), cells, np.zeros(2, int), np.array([1.5, 2.5]), "sigma",
+                         fallback=fallback)
+    J, K, H, reg = mixed.samples(zs)
+    xs = np.tile(2.0 * zs, 2)
+    assert np.array_equal(seen[0][0], xs) and np.array_equal(seen[0][1], np.repeat([0, 1], zs.size))
+    assert np.array_equal(J, xs) and np.array_equal(K, 2.0 * xs) and np.array_equal(reg, xs < 1.5)
     # K along segment 0 replaced by (z - 0.3)(z + 0.5)(z - 0.3 - 1e-7) + 0: roots 0.3, -0.5,
     # 0.3 + 1e-7 in z, i.e. x = 1 + z
     target = poly.polyfromroots([0.3, -0.5, 0.3 + 1e-7])

@@ -199,8 +199,9 @@ class SegmentField:
         if i.size:
             P = legendre_vander(_local(self.fixed[i], a[i], b[i]), deg)
             self.coef[i] = _restricted_series(C, c[i], P, axis == "t")
-        # the same series in powers of the local coordinate z in [-1, 1] (J, K, H rows)
-        self.power = self.coef @ monomial_matrix(deg)
+        # the same series in powers of the local coordinate z in [-1, 1] (J, K, H rows), by
+        # one product for all rows (a stacked product would make one BLAS call per segment)
+        self.power = (self.coef.reshape(-1, deg + 1) @ monomial_matrix(deg)).reshape(self.coef.shape)
         self._antiderivatives = None
 
     def __call__(self, x, seg):
@@ -219,22 +220,24 @@ class SegmentField:
             J[i], K[i], H[i], reg[i] = self.fallback(x[i], seg[i])
         return J, K, H, reg
 
-    def grid(self, xs):
-        """J, K, H, regular (n m,) at xs (n, m): segment k at its m parameters xs[k], in the
-        order of self(xs.ravel(), np.repeat(np.arange(n), m)). The series of a segment is
-        applied to its m points by one product (no coefficients gathered per point)."""
-        xs = np.asarray(xs, dtype=float)
-        n, m = xs.shape
+    def samples(self, zs):
+        """J, K, H, regular (n m,) of every segment k at the fractions zs (m,) of its range,
+        x = x0[k] + (x1[k] - x0[k]) zs, in the order of self(x.ravel(), np.repeat(np.arange(n),
+        m)). On interpolants the local coordinates 2 zs - 1 are the same for every segment:
+        one Legendre-Vandermonde matrix and one product for all of them."""
+        zs = np.asarray(zs, dtype=float)
+        n, m = self.x0.size, zs.size
         out = np.empty((3, n, m))
         reg = np.ones((n, m), bool)
         i = np.nonzero(self.use)[0]
         if i.size:
-            z = _local(xs[i], self.x0[i, None], self.x1[i, None])
-            V = legendre_vander(z, self.coef.shape[2] - 1).T.reshape(-1, i.size, m)
-            out[:, i] = np.matmul(self.coef[i], V.transpose(1, 0, 2)).transpose(1, 0, 2)
+            d1 = self.coef.shape[2]
+            V = legendre_vander(2.0 * zs - 1.0, d1 - 1)  # (m, d + 1)
+            out[:, i] = (self.coef[i].reshape(-1, d1) @ V.T).reshape(i.size, 3, m).transpose(1, 0, 2)
         i = np.nonzero(~self.use)[0]
         if i.size:
-            f = self.fallback(xs[i].ravel(), np.repeat(i, m))
+            xs = self.x0[i, None] + (self.x1 - self.x0)[i, None] * zs[None, :]
+            f = self.fallback(xs.ravel(), np.repeat(i, m))
             for row in range(3):
                 out[row, i] = f[row].reshape(-1, m)
             reg[i] = f[3].reshape(-1, m)

@@ -918,11 +918,12 @@ class _Integrator:
 
     # -- lines in mixed cells -----------------------------------------------------------------
 
-    def _crossings(self, evalf, x0, x1, refine=True):
-        """Zeros of the five level functions along segments x in [x0, x1] (n,).
+    def _crossings(self, evalf, refine=True):
+        """Zeros of the five level functions along the segments of evalf, x in [x0, x1] (n,)
+        (evalf.x0, evalf.x1).
 
         evalf(x, i) -> (J, K, H, regular) (m,) each, at parameters x (m,) of segments i (m,),
-        and evalf.grid(xs) at parameters xs (n, k) of every segment (a SegmentField).
+        and evalf.samples(zs) at the fractions zs (k,) of every segment (a SegmentField).
         Brackets: sign changes between the samples at ZS, and, where three samples of one
         sign dip towards zero and their parabola's vertex gets within DIP_FRACTION of zero,
         the two sides of the extremum (_parabolic_min) when it has the other sign. Levels of
@@ -934,11 +935,12 @@ class _Integrator:
         segment by the samples (a sign change, or a dip of K towards zero). Crossings of K = 0
         (level 4) are refined and returned only while resolve_zero is set (see _line_values).
         refine may also be an (n,) bool array: per segment."""
+        x0, x1 = evalf.x0, evalf.x1
         n = x0.size
         refine = np.broadcast_to(np.asarray(refine, bool), (n,))
         m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
-        J, K, H, reg = evalf.grid(xs)
+        J, K, H, reg = evalf.samples(ZS)
         G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, m, N_LEVELS)
         S = dict(J=np.where(reg, J, 0.0).reshape(n, m), KJ=np.where(reg, K * J, 0.0).reshape(n, m),
                  K=K.reshape(n, m), H=H.reshape(n, m), reg=reg.reshape(n, m))
@@ -1048,7 +1050,7 @@ class _Integrator:
         L = pid.size
         evalf, width = self._segments_t(cell, pid, sig)
         nv = L - n_counted  # lines integrated
-        li, lq, roots, S = self._crossings(evalf, t0, t1, refine=np.arange(L) < nv)
+        li, lq, roots, S = self._crossings(evalf, refine=np.arange(L) < nv)
         counts = _count_and_pairs(li, lq, roots, L)
         v = li < nv
         ar = np.arange(nv)
@@ -1228,7 +1230,7 @@ class _Integrator:
             return self.f(u, lo + tE[i] * (hi - lo))
 
         evalf = SegmentField(self._interp["C"], self._interp["use"], cells, E, tE, "sigma", fallback)
-        li, _, roots, _ = self._crossings(evalf, cells["s0"][E], cells["s1"][E])
+        li, _, roots, _ = self._crossings(evalf)
         return E[li], roots
 
     def _tangent_cuts(self, pc, sig, count, pair, series):
