@@ -110,22 +110,32 @@ def horner2(C, z):
     return p, d1, d2
 
 
-@functools.lru_cache(maxsize=None)
-def product_matrix(deg):
-    """((deg + 1)^2, 2 deg + 1) 0/1 matrix S: the outer product a_i b_j of two power
-    series of degree deg, flattened, times S gives the coefficients of their product."""
-    i, j = np.divmod(np.arange((deg + 1) ** 2), deg + 1)
-    S = np.zeros(((deg + 1) ** 2, 2 * deg + 1))
-    S[np.arange(S.shape[0]), i + j] = 1.0
-    S.flags.writeable = False
-    return S
+def horner_columns(C, z):
+    """sum_j C[j] z^j for coefficient columns C (d + 1, n) and z (n,): Horner's scheme on
+    contiguous rows (the same arithmetic as horner on the transposed coefficients)."""
+    acc = C[-1].copy()
+    for j in range(C.shape[0] - 2, -1, -1):
+        acc *= z
+        acc += C[j]
+    return acc
 
 
-def antiderivative(C):
-    """Power-series coefficients (n, d + 2) of the antiderivative, zero at z = 0, of the
-    series with coefficients C (n, d + 1)."""
-    out = np.zeros((C.shape[0], C.shape[1] + 1))
-    out[:, 1:] = C / np.arange(1, C.shape[1] + 1)
+def product_columns(A, B):
+    """Coefficient columns (2 d + 1, n) of the products of the power series with coefficient
+    columns A and B (d + 1, n): c_k = sum_(i + j = k) a_i b_j, one shifted multiply-add per
+    coefficient of A."""
+    d1 = A.shape[0]
+    out = np.zeros((2 * d1 - 1, A.shape[1]))
+    for i in range(d1):
+        out[i:i + d1] += A[i] * B
+    return out
+
+
+def antiderivative_columns(C):
+    """Coefficient columns (d + 2, n) of the antiderivatives, zero at z = 0, of the power
+    series with coefficient columns C (d + 1, n)."""
+    out = np.zeros((C.shape[0] + 1, C.shape[1]))
+    out[1:] = C / np.arange(1, C.shape[0] + 1)[:, None]
     return out
 
 
@@ -299,22 +309,16 @@ class SegmentField:
         """Exact integrals over [a, b] (k,) in x of J and K J of the series of the segments
         seg (k,) (all using the interpolant): the power series' antiderivatives (K J as the
         product of the two series) at both ends. Returns two (k,) arrays."""
-        if self._antiderivatives is None:
-            deg = self.power.shape[2] - 1
-            J, K = self.power[:, 0], self.power[:, 1]
-            KJ = (K[:, :, None] * J[:, None, :]).reshape(len(J), -1) @ product_matrix(deg)
-            self._antiderivatives = (antiderivative(J), antiderivative(KJ))
-        AJ, AKJ = (A[seg] for A in self._antiderivatives)
+        if self._antiderivatives is None:  # coefficient columns (degree, segment)
+            J, K = self.power[:, 0].T.copy(), self.power[:, 1].T.copy()
+            self._antiderivatives = (antiderivative_columns(J), antiderivative_columns(product_columns(K, J)))
         za, zb = self.local(a, seg), self.local(b, seg)
         h = 0.5 * (self.x1[seg] - self.x0[seg])
+        ends = np.concatenate((zb, za))
+        seg2 = np.concatenate((seg, seg))
         k = seg.size
-        # both antiderivatives at both ends in one Horner pass (AJ padded with leading zeros)
-        A = np.zeros((4, k, AKJ.shape[1]))
-        A[0, :, :AJ.shape[1]] = AJ
-        A[1, :, :AJ.shape[1]] = AJ
-        A[2], A[3] = AKJ, AKJ
-        v = horner(A.reshape(4 * k, -1), np.concatenate((zb, za, zb, za))).reshape(4, k)
-        return h * (v[0] - v[1]), h * (v[2] - v[3])
+        vJ, vKJ = (horner_columns(A[:, seg2], ends) for A in self._antiderivatives)
+        return h * (vJ[:k] - vJ[k:]), h * (vKJ[:k] - vKJ[k:])
 
     def window_min(self, row, offset, sign, x0, x1):
         """Least value (k,) over [x0, x1] (k,) of sign (series row - offset) (all (k,)) on every
