@@ -264,12 +264,6 @@ class SegmentField:
         outside the bracket replaced by bisection, until a step is below ztol (in z) or
         NEWTON_STEPS; a zero bracket end is returned as it is."""
         k, d = seg.size, self.power.shape[2]
-        # rows of f and of f' (its leading coefficient a zero, which leaves Horner's
-        # arithmetic unchanged): both in one Horner pass per step
-        CD = np.zeros((2, k, d))
-        CD[0] = self.power[seg, row]
-        CD[0, :, 0] -= offset
-        CD[1, :, :-1] = CD[0, :, 1:] * np.arange(1, d)
         za, zb = self.local(a, seg), self.local(b, seg)
         neg_a = fa < 0.0
         lo, hi = np.where(neg_a, za, zb), np.where(neg_a, zb, za)  # f(lo) < 0 < f(hi)
@@ -278,14 +272,20 @@ class SegmentField:
             z = lo + np.nan_to_num(flo / (flo - fhi), nan=0.5) * (hi - lo)
         z = np.where(fa == 0.0, za, np.where(fb == 0.0, zb, z))
         act = np.nonzero((fa != 0.0) & (fb != 0.0))[0]
-        # the open brackets' state, compacted as brackets close
-        cd, zi, l, h = CD[:, act].reshape(-1, d), z[act], lo[act], hi[act]
+        # coefficient columns of f (the open brackets', first n) and of f' (its leading
+        # coefficient a zero, which leaves Horner's arithmetic unchanged; last n): both in one
+        # Horner pass per step, compacted as brackets close
+        n = act.size
+        cd = np.zeros((d, 2 * n))
+        cd[:, :n] = self.power[seg[act], row[act] if np.ndim(row) else row].T
+        cd[0, :n] -= np.broadcast_to(offset, (k,))[act]
+        cd[:-1, n:] = cd[1:, :n] * np.arange(1, d)[:, None]
+        zi, l, h = z[act], lo[act], hi[act]
         with np.errstate(divide="ignore", invalid="ignore"):
             for _ in range(NEWTON_STEPS):
-                if act.size == 0:
+                if n == 0:
                     break
-                n = act.size
-                fd = horner(cd, np.concatenate((zi, zi)))
+                fd = horner_columns(cd, np.concatenate((zi, zi)))
                 f, df = fd[:n], fd[n:]
                 neg = f < 0.0
                 l = np.where(neg, zi, l)
@@ -295,13 +295,15 @@ class SegmentField:
                 small = np.abs(step) <= ztol  # converged (the step may round onto a bracket end)
                 inside = np.isfinite(zn) & ((zn - l) * (zn - h) < 0.0)
                 zn = np.where(inside | small, zn, 0.5 * (l + h))
-                done = small | (f == 0.0) | (np.abs(h - l) <= ztol)
-                zi = np.where(f == 0.0, zi, zn)
+                zero = f == 0.0
+                done = small | zero | (np.abs(h - l) <= ztol)
+                zi = np.where(zero, zi, zn)
                 if done.any():
                     z[act[done]] = zi[done]
                     keep = ~done
                     act, zi, l, h = act[keep], zi[keep], l[keep], h[keep]
-                    cd = cd[np.concatenate((keep, keep))]
+                    cd = cd[:, np.concatenate((keep, keep))]
+                    n = act.size
         z[act] = zi
         return self.x0[seg] + 0.5 * (z + 1.0) * (self.x1[seg] - self.x0[seg])
 
