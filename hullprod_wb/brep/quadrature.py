@@ -941,13 +941,21 @@ class _Integrator:
         m = ZS.size
         xs = x0[:, None] + (x1 - x0)[:, None] * ZS[None, :]
         J, K, H, reg = evalf.samples(ZS)
-        G = np.where(reg[:, None], self._thresholds(K, H), np.nan).reshape(n, m, N_LEVELS)
-        S = dict(J=np.where(reg, J, 0.0).reshape(n, m), KJ=np.where(reg, K * J, 0.0).reshape(n, m),
-                 K=K.reshape(n, m), H=H.reshape(n, m), reg=reg.reshape(n, m))
-        near = (np.abs(np.where(reg, K, np.inf)) <= self.tau_K).reshape(n, m)  # H matters
+        G = self._thresholds(K, H)
+        KJ = K * J
+        every = reg.all()  # the usual case: the masks below change nothing
+        if not every:
+            G[~reg] = np.nan
+            J, KJ = np.where(reg, J, 0.0), np.where(reg, KJ, 0.0)
+        G = G.reshape(n, m, N_LEVELS)
+        S = dict(J=J.reshape(n, m), KJ=KJ.reshape(n, m), K=K.reshape(n, m), H=H.reshape(n, m),
+                 reg=reg.reshape(n, m))
+        near = (np.abs(K if every else np.where(reg, K, np.inf)) <= self.tau_K).reshape(n, m)  # H matters
         pos = G > 0.0
-        fin = np.isfinite(G)
-        change = (pos[:, :-1] != pos[:, 1:]) & fin[:, :-1] & fin[:, 1:]
+        change = pos[:, :-1] != pos[:, 1:]
+        if not (every and np.isfinite(K).all() and np.isfinite(H).all()):
+            fin = np.isfinite(G)
+            change &= fin[:, :-1] & fin[:, 1:]
         k_change = change[:, :, :2].any(2) | change[:, :, 4]
         h_ok = near[:, :-1] | near[:, 1:] | k_change
         change[:, :, 2:4] &= h_ok[:, :, None]
