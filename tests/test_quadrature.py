@@ -906,9 +906,8 @@ def test_segment_series_roots_and_exact_integrals():
     # every segment at common fractions of its range (one product), as point by point; the
     # segments of a cell without interpolant (use False) through the fallback, at the same x
     zs = np.array([0.02, 0.3, 0.5, 0.97])
-    x_at = lambda f: (np.array([0.0, 0.0, 0.0])[:, None] + 2.0 * f[None, :]).ravel()
     J, K, H, reg = seg.samples(zs)
-    pJ, pK, pH, preg = seg(x_at(zs), np.repeat(np.arange(3), zs.size))
+    pJ, pK, pH, preg = seg(np.tile(2.0 * zs, 3), np.repeat(np.arange(3), zs.size))  # sigma in [0, 2]
     for a, b in ((J, pJ), (K, pK), (H, pH)):
         assert np.allclose(a, b, rtol=1e-13, atol=1e-13)
     assert reg.all() and preg.all()

@@ -263,7 +263,7 @@ class SegmentField:
         differ in sign: safeguarded Newton on the power series (exact derivative), a step
         outside the bracket replaced by bisection, until a step is below ztol (in z) or
         NEWTON_STEPS; a zero bracket end is returned as it is."""
-        k, d = seg.size, self.power.shape[2]
+        d = self.power.shape[2]
         za, zb = self.local(a, seg), self.local(b, seg)
         neg_a = fa < 0.0
         lo, hi = np.where(neg_a, za, zb), np.where(neg_a, zb, za)  # f(lo) < 0 < f(hi)
@@ -275,10 +275,11 @@ class SegmentField:
         # coefficient columns of f (the open brackets', first n) and of f' (its leading
         # coefficient a zero, which leaves Horner's arithmetic unchanged; last n): both in one
         # Horner pass per step, compacted as brackets close
+        F = self.power[seg, row]  # (k, d), a copy
+        F[:, 0] -= offset
         n = act.size
         cd = np.zeros((d, 2 * n))
-        cd[:, :n] = self.power[seg[act], row[act] if np.ndim(row) else row].T
-        cd[0, :n] -= np.broadcast_to(offset, (k,))[act]
+        cd[:, :n] = F[act].T
         cd[:-1, n:] = cd[1:, :n] * np.arange(1, d)[:, None]
         zi, l, h = z[act], lo[act], hi[act]
         with np.errstate(divide="ignore", invalid="ignore"):
