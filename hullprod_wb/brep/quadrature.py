@@ -189,7 +189,8 @@ class QuadratureResult:
     quantity after each quadtree level (level 0: the patches' own Gauss sums, or those of the
     first cells where the patches were halved before (their level's estimate stands for the
     levels above it); level d: accepted cells plus the Gauss sums of the cells still
-    refined), a list of dicts quantity -> float: the refinement sequence of the stability rule (section 5.2).
+    refined), a list of dicts quantity -> float: the refinement sequence of the stability
+    rule (section 5.2).
     zero_resolved: crossings of K = 0 cut the lines of mixed cells (else the bounds charged
     instead, zero_charge, within ZERO_CHARGE_SHARE of the K integrals' tolerances, are part
     of their error estimates; see _Integrator._line_values).
