@@ -37,7 +37,8 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
     Part.Shape, Mesh.Mesh, trimesh.Trimesh or (vertices, faces). lref: reference length
     in the input's units (None: automatic). h_f, k_f: class tolerances. backend: 'brep',
     'mesh' or None (by representation). faces: 1-based BRep face numbers to assess.
-    options: BRep settings (order, rtol, max_depth, jobs: worker processes for the faces,
+    options: BRep settings (order, rtol, max_depth, protocol, point_budget, depth_limit: see
+    brep.backend.DEFAULT_QUADRATURE; jobs: worker processes for the faces,
     see brep.face_pool). Returns an Assessment.
     """
     rep = representation_of(source)

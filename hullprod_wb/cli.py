@@ -49,8 +49,17 @@ def add_common_options(p):
     p.add_argument("--faces", default=None, help="BRep faces to assess, e.g. 1,2 (default: all)")
     q = p.add_argument_group("BRep quadrature")
     q.add_argument("--order", type=int, default=None, help="Gauss-Legendre order per direction (default 5)")
-    q.add_argument("--rtol", type=float, default=None, help="local relative tolerance (default 1e-4)")
-    q.add_argument("--max-depth", type=int, default=None, help="maximum refinement depth (default 5)")
+    q.add_argument("--rtol", type=float, default=None,
+                   help="relative tolerance of the shape's totals (default 1e-4)")
+    q.add_argument("--protocol", choices=("budget", "paper"), default=None,
+                   help="budget: refinement by the error estimates within a point budget, tolerances on the "
+                        "shape's totals (default); paper: each face to --max-depth, rechecked one level deeper")
+    q.add_argument("--point-budget", type=int, default=None,
+                   help="field points of the whole assessment, shared by the faces by area (default 8000000)")
+    q.add_argument("--depth-limit", type=int, default=None,
+                   help="levels a cell may be refined below its patch (default 30)")
+    q.add_argument("--max-depth", type=int, default=None,
+                   help="depth of the paper protocol (default 5; also bounds the halving of few patches)")
     q.add_argument("--jobs", type=int, default=None,
                    help="processes integrating the faces (or the patch groups of a face assessed "
                         "alone) in parallel (default: the available CPUs, or $HULLPROD_JOBS; the "
@@ -59,7 +68,7 @@ def add_common_options(p):
 
 #: analyze's options that take a value (the others are flags), for early_reading's scan.
 VALUE_OPTIONS = ("--lref", "--hf", "--kf", "--backend", "--faces", "--order", "--rtol", "--max-depth",
-                 "--jobs", "--out")
+                 "--protocol", "--point-budget", "--depth-limit", "--jobs", "--out")
 
 
 def early_reading(argv):
@@ -101,6 +110,9 @@ def early_reading(argv):
 
 def quadrature_options(args):
     return {k: v for k, v in (("order", args.order), ("rtol", args.rtol), ("max_depth", args.max_depth),
+                              ("protocol", getattr(args, "protocol", None)),
+                              ("point_budget", getattr(args, "point_budget", None)),
+                              ("depth_limit", getattr(args, "depth_limit", None)),
                               ("jobs", getattr(args, "jobs", None))) if v is not None}
 
 

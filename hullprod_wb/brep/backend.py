@@ -37,8 +37,16 @@ from .recorded_shape import FaceRecord, RecordedShape
 from .quadrature import GROUPS, QUANTITIES, NodePrefetch, integrate, patch_area, patch_groups
 from .trimmed_domain import TrimmedDomain
 
-#: Quadrature settings of the paper's campaign (section 5.2); all are options.
-DEFAULT_QUADRATURE = {"order": 5, "rtol": 1e-4, "max_depth": 5}
+#: Quadrature settings; all are options. protocol "budget": every face refined by its error
+#: estimates down to depth_limit levels, within a share of point_budget field points (its
+#: area share, at least FACE_POINT_FLOOR), the tolerances held by the shape's totals
+#: (metric_validity); "paper": the paper's campaign (section 5.2), each face on its own to
+#: max_depth, rechecked at max_depth + 1.
+DEFAULT_QUADRATURE = {"order": 5, "rtol": 1e-4, "max_depth": 5, "protocol": "budget", "depth_limit": 30,
+                      "point_budget": 8_000_000}
+PROTOCOLS = ("budget", "paper")
+#: Smallest point budget of a face (slivers and small fillets get at least this many points).
+FACE_POINT_FLOOR = 100_000
 #: Stability rule for I_D over the global refinement sequence: last and prior relative change.
 ID_STABILITY = (0.02, 0.03)
 #: A face whose share of int|K| exceeds this many times its share of area (and 1 %) is named.
@@ -51,6 +59,8 @@ METRIC_QUANTITIES = {"I_D": ("int_abs_K", "A_valid"), "I_D_plus": ("int_K_plus",
 #: Tree depth and class-line halvings of a graded neighbourhood quadrant.
 QUADRANT_MAX_DEPTH = 5
 QUADRANT_CLASS_DEPTH = 1
+#: Rounds of grading at knot-grid nodes where a face's refinement stalled.
+STALL_ROUNDS = 2
 #: Points per face for the pointwise cross-check against OpenCascade.
 CROSS_CHECK_POINTS = plain_records.CROSS_CHECK_POINTS
 
@@ -125,6 +135,7 @@ class CombinedQuadrature:
         self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
                                 for p in parts))
         self.rechecked = any(p.recheck is not None for p in parts)
+        self.budget_spent = any(getattr(f, "budget_spent", False) for f in finals[:self.n_main])
         # refinement sequence: the parts' level estimates summed level by level (a part
         # that stopped earlier keeps its last estimate)
         hist = [(f.history or [f.values]) for f in finals]
@@ -143,6 +154,7 @@ class CombinedQuadrature:
     def to_dict(self):
         return {"values": self.values, "errors": self.errors, "converged": self.converged,
                 "depth_reached": self.depth_reached, "n_points": self.n_points, "rechecked": self.rechecked,
+                "budget_spent": self.budget_spent,
                 "patch_groups": self.n_main, "parts": [p.to_dict() for p in self.parts]}
 
 
@@ -258,6 +270,15 @@ class FaceSetup:
         u_breaks, v_breaks = ff.evaluator.continuity_breaks(urange=domain.u_range, vrange=domain.v_range)
         self.u_breaks, self.v_breaks = u_breaks, v_breaks
         self.deg = singular.find_degenerate(ff, domain, u_breaks, v_breaks)
+        self._neighbourhoods()
+        self.check = {}
+        if area_check:
+            self.area_check()
+
+    def _neighbourhoods(self):
+        """Quadrants of the degenerate set's graded points, the patches' lines gu, gv and the
+        field with the neighbourhoods excluded."""
+        ff, domain, u_breaks, v_breaks = self.ff, self.domain, self.u_breaks, self.v_breaks
         self.quads = singular.neighbourhood_quadrants(self.deg, domain, u_breaks, v_breaks) if self.deg else []
         self.gu, self.gv = u_breaks, v_breaks
         self.main_field = ff
@@ -266,10 +287,17 @@ class FaceSetup:
             self.gu = np.unique(np.concatenate([np.asarray(u_breaks, float), qu]))
             self.gv = np.unique(np.concatenate([np.asarray(v_breaks, float), qv]))
             self.main_field = singular.ExcludedBoxesField(ff, [q.box for q in self.quads])
-        self.check = {}
         self.prefetch = None
-        if area_check:
-            self.area_check()
+        self.__dict__.pop("patches", None)
+
+    def add_stalled_points(self, points):
+        """Grade and audit the knot-grid nodes where a refinement stalled
+        (singular.points_from_refinement) from now on. Returns whether any point got a
+        neighbourhood inside the domain."""
+        before = len(self.quads)
+        self.deg.stalled.extend(points)
+        self._neighbourhoods()
+        return len(self.quads) > before
 
     @classmethod
     def here(cls, face, area_check=False):
@@ -326,7 +354,7 @@ def set_up_until(done, faces, cost, area_check):
 
 
 def assess_face(number, face, thresholds, lref, opts, progress=null_progress, groups=False, group_jobs=1,
-                cross_checks=True, setup=None):
+                cross_checks=True, setup=None, point_budget=None):
     """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
     separately through a graded map (singular.GradedQuadrantField), then audited. With
     groups, a face of many patches is integrated in patch groups (quadrature.patch_groups),
@@ -336,18 +364,52 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     recorded_shape.FaceRecord (the same field and domain from its records, and OpenCascade's
     cross-check values). setup: its FaceSetup when already made."""
     s = setup or FaceSetup(face)
-    ff, domain, deg, quads = s.ff, s.domain, s.deg, s.quads
-    u_breaks, v_breaks, gu, gv, main_field = s.u_breaks, s.v_breaks, s.gu, s.gv, s.main_field
+    quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, cross_checks, point_budget)
+    for _ in range(STALL_ROUNDS if opts.get("protocol") != "paper" and opts.get("audit", True) else 0):
+        # a refinement that stalled at a knot-grid node: graded there and audited (VALID* or
+        # SINGULAR), instead of ever smaller cells (paper section 4.3)
+        pts = singular.points_from_refinement([_final(p) for p in quad.parts[:quad.n_main]], s.domain,
+                                              s.u_breaks, s.v_breaks, s.deg.graded_points)
+        if not pts or not s.add_stalled_points(pts):
+            break
+        quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, False, point_budget)
+    ff, domain, deg, quads, gu, gv = s.ff, s.domain, s.deg, s.quads, s.gu, s.gv
+    audits = []
+    if deg and opts.get("audit", True):
+        totals = dict(quad.values)
+        for p in deg.audited_points:
+            audits.append(singular.audit_point(ff, p, quads, totals, lref, thresholds.tau_H,
+                                               thresholds.tau_K, order=opts["order"]))
+        for side in deg.sides:
+            audits.append(singular.probe_side(ff, domain, side, s.u_breaks, s.v_breaks))
+    f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
+    if cross_checks:
+        f.cross_check = face_cross_checks(f, s.check.get("rule"), s.check.get("seconds", 0.0),
+                                          reference=face.occ_reference if s.recorded else None)
+    return f
+
+
+def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_check, point_budget):
+    """CombinedQuadrature of a set-up face (FaceSetup s): its patch groups (in group_jobs
+    processes when groups), then each neighbourhood quadrant through its graded map. With
+    the budget protocol (opts["protocol"] != "paper") the groups refine by their error down
+    to opts["depth_limit"] within point_budget points (split between the groups); with the
+    paper's, to max_depth with a recheck one level deeper (section 5.2)."""
+    ff, domain, quads, gu, gv, main_field = s.ff, s.domain, s.quads, s.gu, s.gv, s.main_field
     kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
     groups = patch_groups(s.patches.size) if groups else [None]
+    mkw = dict(kw)
+    if opts.get("protocol") != "paper":
+        mkw.update(depth_limit=opts["depth_limit"],
+                   point_budget=None if point_budget is None else max(1, int(point_budget) // len(groups)))
     prefetch = s.prefetch if s.prefetch is not None and len(s.prefetch) == len(groups) else [None] * len(groups)
 
     def main_part(g):  # progress from the group integrated in this process
         return integrate(domain, main_field, thresholds.tau_H, thresholds.tau_K, u_breaks=gu, v_breaks=gv,
-                         progress=progress if g == 0 else None, patch_range=groups[g], prefetch=prefetch[g], **kw)
+                         progress=progress if g == 0 else None, patch_range=groups[g], prefetch=prefetch[g], **mkw)
 
     # the area rule is independent of the adaptive cubature: while other groups finish
-    parts = map_forked(main_part, len(groups), group_jobs, while_waiting=s.area_check if cross_checks else None)
+    parts = map_forked(main_part, len(groups), group_jobs, while_waiting=s.area_check if area_check else None)
     n_main = len(parts)
     unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0) if quads else None
     # Each neighbourhood quadrant may use up to a 1/(2 n) share of the face's tolerance; the
@@ -358,31 +420,24 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     for q in quads:
         parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,
                                reference=share, **qkw))
-    quad = CombinedQuadrature(parts, n_main)
-    audits = []
-    if deg and opts.get("audit", True):
-        totals = dict(quad.values)
-        for p in deg.points:
-            audits.append(singular.audit_point(ff, p, quads, totals, lref, thresholds.tau_H,
-                                               thresholds.tau_K, order=opts["order"]))
-        for side in deg.sides:
-            audits.append(singular.probe_side(ff, domain, side, u_breaks, v_breaks))
-    f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
-    if cross_checks:
-        f.cross_check = face_cross_checks(f, s.check.get("rule"), s.check.get("seconds", 0.0),
-                                          reference=face.occ_reference if s.recorded else None)
-    return f
+    return CombinedQuadrature(parts, n_main)
+
+
+def _global_tolerance(faces, quantity, rtol):
+    """Tolerance of a quantity's total over the faces: rtol max(|total|, 1e-2 A) for areas,
+    rtol |total| for the K integrals."""
+    total = sum(f.quad.values[quantity] for f in faces)
+    scale = max(abs(total), 1e-2 * sum(f.quad.values["A"] for f in faces)
+                if quantity.startswith("A") else abs(total))
+    return rtol * scale
 
 
 def _global_converged(faces, quantity, rtol):
-    """Converged on every face, or the summed error estimate within rtol of the total."""
+    """Converged on every face, or the summed error estimate within the total's tolerance
+    (_global_tolerance): one error budget for the whole shape."""
     if all(f.quad.converged[quantity] for f in faces):
         return True
-    total = sum(f.quad.values[quantity] for f in faces)
-    err = sum(f.quad.errors[quantity] for f in faces)
-    scale = max(abs(total), 1e-2 * sum(f.quad.values["A"] for f in faces)
-                if quantity.startswith("A") else abs(total))
-    return err <= rtol * scale
+    return sum(f.quad.errors[quantity] for f in faces) <= _global_tolerance(faces, quantity, rtol)
 
 
 def _quantity_total(faces, q):
@@ -405,10 +460,10 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
             status = Status.UNCONVERGED
         elif "divergent" in verdicts:
             status = Status.SINGULAR
-        elif "convergent" in verdicts:
-            status = Status.VALID_STAR
         elif "inconclusive" in verdicts or "not_audited" in verdicts:
             status = Status.CAUTION
+        elif "convergent" in verdicts:
+            status = Status.VALID_STAR
         else:
             status = Status.VALID
         rows.append({
@@ -459,8 +514,14 @@ def metric_validity(faces, integrals, values, opts, history):
             conv = conv and all(_global_converged(faces, c, rtol) for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
         evidence = {"error_estimate": sum(f.result.errors.get(num, 0.0) for f in faces),
                     "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
-                    "depth_limit": opts["max_depth"], "recheck_depth": opts["max_depth"] + 1,
-                    "rechecked_faces": [f.number for f in faces if f.quad.rechecked]}
+                    "points": int(sum(f.quad.n_points for f in faces))}
+        evidence["tolerance"] = _global_tolerance(faces, num, rtol)
+        if opts.get("protocol") == "paper":
+            evidence.update({"depth_limit": opts["max_depth"], "recheck_depth": opts["max_depth"] + 1,
+                             "rechecked_faces": [f.number for f in faces if f.quad.rechecked]})
+        else:
+            evidence.update({"depth_limit": opts["depth_limit"], "point_budget": opts["point_budget"],
+                             "budget_spent_faces": [f.number for f in faces if f.quad.budget_spent]})
         if repaired:
             evidence["repaired_domains"] = repaired
         is_K = den == "A_valid"
@@ -468,10 +529,12 @@ def metric_validity(faces, integrals, values, opts, history):
             rec = MetricValidity(Status.NOT_EVALUATED, None, "no regular surface area to evaluate",
                                  "no_valid_area", rep, valid, evidence)
         elif not conv:
-            rec = MetricValidity(Status.UNCONVERGED, values[m],
-                                 "adaptive quadrature did not reach the tolerance %g at depth %d, nor at %d"
-                                 % (rtol, opts["max_depth"], opts["max_depth"] + 1),
-                                 "quadrature_unresolved", rep, valid, evidence)
+            reason = ("adaptive quadrature did not reach the tolerance %g at depth %d, nor at %d"
+                      % (rtol, opts["max_depth"], opts["max_depth"] + 1) if opts.get("protocol") == "paper" else
+                      "the summed error estimate %.3g exceeds the tolerance %.3g (rtol %g of the total) with the "
+                      "point budget spent on face(s) %s" % (evidence["error_estimate"], evidence["tolerance"], rtol,
+                                                            ",".join(map(str, evidence["budget_spent_faces"])) or "none"))
+            rec = MetricValidity(Status.UNCONVERGED, values[m], reason, "quadrature_unresolved", rep, valid, evidence)
         elif is_K and "divergent" in verdicts:
             evidence["audit"] = audits
             rec = MetricValidity(Status.SINGULAR, values[m],
@@ -482,6 +545,11 @@ def metric_validity(faces, integrals, values, opts, history):
             rec = MetricValidity(Status.UNCONVERGED, values[m],
                                  "I_D changed by more than 2 %/3 % over the last global refinements",
                                  "refinement_unstable", rep, valid, evidence)
+        elif is_K and ("inconclusive" in verdicts or "not_audited" in verdicts):
+            evidence["audit"] = audits
+            rec = MetricValidity(Status.CAUTION, values[m],
+                                 "degenerate points whose neighbourhood could not be shown regular or convergent",
+                                 "singular_set_unresolved", rep, valid, evidence)
         elif is_K and "convergent" in verdicts:
             evidence["audit"] = audits
             pw = [a["decay_power"] for a in audits if a["verdict"] == "convergent"]
@@ -489,11 +557,6 @@ def metric_validity(faces, integrals, values, opts, history):
                                  "convergent improper integral: |K| is unbounded at %d degenerate point(s); the "
                                  "excluded |K| integral decays like r^%.2f" % (len(pw), min(pw)),
                                  "convergent_improper", rep, valid, evidence)
-        elif is_K and ("inconclusive" in verdicts or "not_audited" in verdicts):
-            evidence["audit"] = audits
-            rec = MetricValidity(Status.CAUTION, values[m],
-                                 "degenerate points whose neighbourhood could not be shown regular or convergent",
-                                 "singular_set_unresolved", rep, valid, evidence)
         elif fallback:
             evidence["approximate_domains"] = fallback
             rec = MetricValidity(Status.CAUTION, values[m],
@@ -552,12 +615,14 @@ def refinement_history(faces, lref):
 
 def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, with_fields=True,
                 progress=None, order=None, rtol=None, max_depth=None, audit=True, display_deflection=None,
-                cross_checks=True, jobs=None):
+                cross_checks=True, jobs=None, protocol=None, depth_limit=None, point_budget=None):
     """Signature of a BRep (file path, Part.Shape, FreeCAD object, or a BRepInput already
     loaded, whose face selection then stands) by exact quadrature.
 
     lref: reference length in the shape's units (None: automatic); faces: 1-based face
-    numbers; order, rtol, max_depth: quadrature settings (default 5, 1e-4, 5, rechecked at
+    numbers; order, rtol, max_depth, protocol, depth_limit, point_budget: quadrature settings
+    (DEFAULT_QUADRATURE: refinement by the error down to 30 levels within 8 million points,
+    tolerances on the shape's totals; protocol "paper": each face to max_depth 5, rechecked at
     max_depth + 1); audit: nested-neighbourhood audit at degenerate points;
     display_deflection: tessellation of the display-only fields (default 5e-3 of the
     bounding-box diagonal; the automatic L_ref always comes from the nodes of a tessellation
@@ -567,19 +632,44 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     """
     try:
         return _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rtol, max_depth,
-                            audit, display_deflection, cross_checks, jobs)
+                            audit, display_deflection, cross_checks, jobs, protocol, depth_limit, point_budget)
     finally:
         if isinstance(source, ReadInChild):
             source.close()
 
 
+def face_point_budgets(opts, weights):
+    """Point budget of each face (None: no limit, the paper's protocol): its share weights
+    (n,) of opts["point_budget"], at least FACE_POINT_FLOOR."""
+    if opts.get("protocol") == "paper" or opts.get("point_budget") is None:
+        return [None] * len(weights)
+    total = int(opts["point_budget"])
+    return [max(min(FACE_POINT_FLOOR, total), int(total * w)) for w in weights]
+
+
+def quadrature_options(order=None, rtol=None, max_depth=None, protocol=None, depth_limit=None,
+                       point_budget=None):
+    """DEFAULT_QUADRATURE with the given settings (None: the default); InputError on a value
+    out of range."""
+    opts = dict(DEFAULT_QUADRATURE)
+    given = (("order", order), ("rtol", rtol), ("max_depth", max_depth), ("protocol", protocol),
+             ("depth_limit", depth_limit), ("point_budget", point_budget))
+    opts.update({k: v for k, v in given if v is not None})
+    if opts["protocol"] not in PROTOCOLS:
+        raise InputError("unknown quadrature protocol %r (known: %s)" % (opts["protocol"], ", ".join(PROTOCOLS)))
+    if int(opts["depth_limit"]) < 1 or int(opts["point_budget"]) < 1:
+        raise InputError("depth limit and point budget must be >= 1, got %r and %r"
+                         % (opts["depth_limit"], opts["point_budget"]))
+    opts["depth_limit"], opts["point_budget"] = int(opts["depth_limit"]), int(opts["point_budget"])
+    return opts
+
+
 def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rtol, max_depth, audit,
-                 display_deflection, cross_checks, jobs):
+                 display_deflection, cross_checks, jobs, protocol=None, depth_limit=None, point_budget=None):
     progress = progress or null_progress
     timings = {}
     t0 = time.perf_counter()
-    opts = dict(DEFAULT_QUADRATURE)
-    opts.update({k: v for k, v in (("order", order), ("rtol", rtol), ("max_depth", max_depth)) if v is not None})
+    opts = quadrature_options(order, rtol, max_depth, protocol, depth_limit, point_budget)
     opts["audit"] = bool(audit)
     progress(0.0, "reading BRep")
     if isinstance(source, ReadInChild):
@@ -653,6 +743,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     areas = np.maximum(np.array(cost if occ_areas is None else occ_areas, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
     group_jobs = resolve_jobs(jobs, GROUPS) if groups else 1
+    face_budgets = face_point_budgets(opts, weights)
     done = [0.0, 0]  # weight and number of the faces finished
 
     def face_work(i):
@@ -664,7 +755,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         else:
             sub = null_progress
         return assess_face(number, face, th, ref.value, opts, sub, groups, group_jobs, cross_checks,
-                           setups[i]).detach()
+                           setups[i], face_budgets[i]).detach()
 
     def finished(i, f):
         done[0] += weights[i]
@@ -726,7 +817,8 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     progress(1.0, "done: %d quadrature points" % points)
     return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                       validity=validity, fields=fields, provenance=prov,
-                      options={**opts, "recheck_depth": opts["max_depth"] + 1, "jobs": n_jobs,
+                      options={**opts, "recheck_depth": opts["max_depth"] + 1 if opts["protocol"] == "paper" else None,
+                               "jobs": n_jobs,
                                "group_jobs": min(group_jobs, max(f.quad.n_main for f in results)),
                                "display_deflection": deflection,
                                "lref_sample_deflection": SAMPLE_DEFLECTION * size, "points_evaluated": points},

@@ -168,6 +168,8 @@ PREFETCH_CELLS = 256
 N_PEAKS = 10
 #: At most this many non-regular sample locations are kept.
 MAX_NONREGULAR = 10000
+#: Boxes of the deepest accepted cells kept in a result (where the refinement went deepest).
+N_DEEPEST = 64
 
 
 @dataclass
@@ -218,6 +220,9 @@ class QuadratureResult:
     history: Optional[list] = None
     zero_resolved: bool = False
     zero_charge: float = 0.0
+    point_budget: Optional[int] = None
+    budget_spent: bool = False
+    deepest_cells: Optional[np.ndarray] = None
 
     @property
     def all_converged(self):
@@ -240,10 +245,12 @@ class QuadratureResult:
                                              "rtol", "max_depth", "depth_reached", "n_points",
                                              "n_field_calls", "n_cells", "n_initial_cells",
                                              "n_mixed_cells", "n_nonregular", "seconds",
-                                             "zero_resolved", "zero_charge")}
+                                             "zero_resolved", "zero_charge", "point_budget",
+                                             "budget_spent")}
         out["nonregular_uv"] = self.nonregular_uv.tolist()
         out["unconverged_cells"] = self.unconverged_cells.tolist()
         out["peak_KJ"] = self.peak_KJ.tolist()
+        out["deepest_cells"] = None if self.deepest_cells is None else self.deepest_cells.tolist()
         out["history"] = self.history
         out["recheck"] = None if self.recheck is None else self.recheck.to_dict()
         return out
@@ -591,6 +598,8 @@ class _Integrator:
         self.err_acc = np.zeros(NQ)
         self.depth = level
         self.pending = None  # units left unaccepted at the last level
+        self.budget_spent = False  # refinement stopped by the point budget (refine_to)
+        self.point_budget = None
         self.active.update(self._eval_cells(self.active, self._prefetched(0)))
         if prefetch is not None:
             self.active["row"] = np.arange(P)  # the first cell of each active cell (_prefetched)
@@ -711,18 +720,31 @@ class _Integrator:
         scale[2:5] *= self.tau_K
         return self.rtol * np.maximum(np.maximum(np.abs(Q), ZERO_SCALE * scale), self.reference)
 
-    def refine_to(self, depth_limit):
-        """Refine level by level until converged or depth_limit is reached."""
+    def refine_to(self, depth_limit, point_budget=None):
+        """Refine level by level until converged, depth_limit is reached, or (point_budget)
+        the next level's children would take the field points evaluated beyond point_budget.
+        Only the cells left unaccepted are refined, so the depth grows where the error
+        estimates stay large (a singular corner costs four cells a level)."""
+        per_cell = self.order * self.order
         while self.active["pid"].size and self.depth < depth_limit:
             self._accept_own()
             a = self.active
             na = a["pid"].size
             if na == 0:
                 break
+            if point_budget is not None and self.f.n_points + 4 * na * per_cell > point_budget \
+                    and self.pending is not None:
+                self.budget_spent = True
+                break
             ch = _children(a)
             ch.update(self._eval_cells(ch, self._prefetched(1, a.get("row"))))
             self.depth += 1
-            last = self.depth >= depth_limit
+            # the last level: the depth limit, or the point budget would not hold the next
+            # level's children (at most four a cell refined here)
+            last = self.depth >= depth_limit or (
+                point_budget is not None and self.f.n_points + 16 * na * per_cell > point_budget)
+            if last and self.depth < depth_limit:
+                self.budget_spent = True
             unit = {k: a[k] for k in ("pid", "s0", "s1", "t0", "t1")}
             unit["Q"] = ch["Q"].reshape(na, 4, NQ).sum(1)
             unit["mixed"] = ch["mixed"].reshape(na, 4).any(1)
@@ -795,7 +817,8 @@ class _Integrator:
             self.active = {k: v[r4] for k, v in ch.items()}
             self._record_level()
             if self.progress is not None:
-                self.progress(min(1.0, self.depth / float(depth_limit + 1)),
+                self.progress(min(1.0, self.depth / float(depth_limit + 1) if point_budget is None
+                                  else self.f.n_points / float(point_budget)),
                               "quadrature depth %d: %d of %d cells refined"
                               % (self.depth, int((~accept).sum()), na))
 
@@ -1549,6 +1572,8 @@ class _Integrator:
         pend = self.pending if self.pending is not None else {k: v[:0] for k, v in units.items()}
         unconv = self.patches.boxes(pend["pid"], pend["s0"], pend["s1"], pend["t0"], pend["t1"])
         top = np.argsort(-units["peak"][:, 2])[:N_PEAKS]
+        deep = np.nonzero(units["depth"] == units["depth"].max())[0][:N_DEEPEST]
+        deepest = self.patches.boxes(*(units[k][deep] for k in ("pid", "s0", "s1", "t0", "t1")))
         nonreg = np.concatenate(self.nonregular) if self.nonregular else np.empty((0, 2))
         return QuadratureResult(
             values={q: float(x) for q, x in zip(QUANTITIES, Q)},
@@ -1562,7 +1587,8 @@ class _Integrator:
             nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
             peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start,
             history=list(self.history), zero_resolved=self.resolve_zero,
-            zero_charge=self.zero_charge)
+            zero_charge=self.zero_charge, point_budget=self.point_budget, budget_spent=self.budget_spent,
+            deepest_cells=deepest)
 
 
 def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
@@ -1664,7 +1690,7 @@ def patch_groups(n_patches, min_patches=None):
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
               v_breaks=(), progress=None, recheck=True, class_max_depth=2, reference=None,
-              lines=True, patch_range=None, prefetch=None):
+              lines=True, patch_range=None, prefetch=None, depth_limit=None, point_budget=None):
     """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
 
     domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
@@ -1683,7 +1709,11 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     K integrals only); patch_range: (start, stop) of the domain's patches to integrate
     (default all; see patch_groups), with tolerances relative to their own integrals;
     prefetch: a NodePrefetch of the same domain, field, order, breaks and patch range, whose
-    values are used where it has them.
+    values are used where it has them. depth_limit: refinement driven by the error alone:
+    the cells left unaccepted are refined down to depth_limit levels below the patches
+    (max_depth then only bounds the halving of few patches into first cells, and there is
+    no recheck), while the field points stay within point_budget (None: no limit); the
+    result says whether the budget stopped it (budget_spent).
     Returns a QuadratureResult.
     """
     if not isinstance(domain, TrimmedDomain):
@@ -1699,6 +1729,13 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
                      u_breaks, v_breaks, progress, patch_range, prefetch, int(max_depth))
     it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
     it.lines = bool(lines)
+    if depth_limit is not None:
+        it.point_budget = None if point_budget is None else int(point_budget)
+        it.refine_to(int(depth_limit), it.point_budget)
+        result = it.snapshot(int(depth_limit), start)
+        if progress is not None:
+            progress(1.0, "quadrature done: %d points" % it.f.n_points)
+        return result
     it.refine_to(int(max_depth))
     result = it.snapshot(int(max_depth), start)
     if recheck and not result.all_converged:

@@ -19,10 +19,21 @@ from .trimmed_domain import TrimmedDomain
 DEGENERATE_RTOL = 1e-8
 #: Samples per knot span along each side of the parameter rectangle.
 SIDE_SAMPLES = 8
-#: Nested neighbourhoods of the audit: r0 * 2^-k, k = 0..AUDIT_LEVELS-1.
-AUDIT_LEVELS = 6
+#: Nested neighbourhoods of the audit: r0 * 2^-k, k = 0..AUDIT_LEVELS-1 (down to about
+#: 1e-4 r0: a curvature peak confined to a small core shows its power law only there); the
+#: first AUDIT_FIRST_LEVELS of them decide a bounded or convergent case.
+AUDIT_LEVELS = 14
+AUDIT_FIRST_LEVELS = 6
+#: The first neighbourhoods decide a convergent case only with a decay power above this
+#: (well clear of CONVERGENT_POWER); otherwise the innermost ones decide.
+FIRST_CLEAR_POWER = 0.5
+#: The decay power is fitted on the innermost neighbourhoods, from this level on.
+AUDIT_FIT_FROM = 7
 #: Fitted decay power of the excluded |K| integral above which the integral converges.
 CONVERGENT_POWER = 0.25
+#: Decay power of the excluded |K| integral from which K is taken as bounded (E ~ r^2 when
+#: K is bounded; E ~ r^(2 - a) for |K| ~ r^-a).
+BOUNDED_POWER = 1.9
 #: Growth of max |K| over the audit neighbourhoods above which K is unbounded there.
 UNBOUNDED_GROWTH = 10.0
 
@@ -40,17 +51,25 @@ class DegenerateSet:
     points: list = field(default_factory=list)
     sides: list = field(default_factory=list)
     hot_spots: list = field(default_factory=list)
+    #: knot-grid nodes where the adaptive refinement stalled (points_from_refinement):
+    #: graded and audited like degenerate points
+    stalled: list = field(default_factory=list)
 
     def __bool__(self):
-        return bool(self.points or self.sides or self.hot_spots)
+        return bool(self.points or self.sides or self.hot_spots or self.stalled)
 
     @property
     def graded_points(self):
-        return list(self.points) + list(self.hot_spots)
+        return list(self.points) + list(self.hot_spots) + list(self.stalled)
+
+    @property
+    def audited_points(self):
+        return self.graded_points
 
     def to_dict(self):
         return {"points": [[float(u), float(v)] for u, v in self.points], "collapsed_sides": list(self.sides),
-                "hot_spots": [[float(u), float(v)] for u, v in self.hot_spots]}
+                "hot_spots": [[float(u), float(v)] for u, v in self.hot_spots],
+                "refinement_stalled": [[float(u), float(v)] for u, v in self.stalled]}
 
 
 def _grid_values(lo, hi, breaks):
@@ -105,13 +124,60 @@ def find_degenerate(face_field, domain, u_breaks, v_breaks):
     return out
 
 
+#: A refinement stalled at a knot-grid node when the sample of largest |K| J lies within
+#: this many widths of the deepest unconverged cells from the node.
+STALL_REACH = 2.0
+#: A smooth integrand meets the tolerance within this many quadtree levels below the patches
+#: (Gauss-Legendre of order 5 gains about 2^-10 a level); refinement deeper than this at a
+#: node is taken as a power-law singularity there.
+SMOOTH_DEPTH = 8
+
+
+def points_from_refinement(results, domain, u_breaks, v_breaks, known=()):
+    """Knot-grid nodes (u, v) at which an adaptive integration stalled: the K integrals did
+    not converge, and the sample of largest |K| J (QuadratureResult.peak_KJ) lies within
+    STALL_REACH widths of the smallest unconverged cell from a node of the knot grid (the
+    corners of the domain included) inside the domain. There the integrand grows like a
+    power of the distance, which the quadtree resolves only by ever smaller cells around
+    the point, and the graded map and the nested-neighbourhood audit decide it instead
+    (paper section 4.3). The same holds where the refinement converged only SMOOTH_DEPTH
+    or more levels deep, at its deepest cells. results: the QuadratureResults of the face's parts on the face's
+    own (u, v) domain; known: points already graded. Returns a list of (u, v)."""
+    (u0, u1), (v0, v1) = domain.u_range, domain.v_range
+    gu = _grid_values(u0, u1, u_breaks)
+    gv = _grid_values(v0, v1, v_breaks)
+    out = []
+    for r in results:
+        stalled = not r.converged.get("int_abs_K", True) and len(r.unconverged_cells)
+        deep = r.depth_reached >= SMOOTH_DEPTH and r.deepest_cells is not None and len(r.deepest_cells)
+        if not (stalled or deep) or not len(r.peak_KJ):
+            continue
+        boxes = np.asarray(r.unconverged_cells if stalled else r.deepest_cells, dtype=float)
+        wu = float((boxes[:, 1] - boxes[:, 0]).min())
+        wv = float((boxes[:, 3] - boxes[:, 2]).min())
+        pu, pv = float(r.peak_KJ[0][0]), float(r.peak_KJ[0][1])
+        iu, iv = int(np.abs(gu - pu).argmin()), int(np.abs(gv - pv).argmin())
+        nu, nv = float(gu[iu]), float(gv[iv])
+        if abs(nu - pu) > STALL_REACH * wu or abs(nv - pv) > STALL_REACH * wv:
+            continue
+        if not _inside_or_on(domain, np.array([nu]), np.array([nv]))[0]:
+            continue
+        if any(abs(nu - a) <= 1e-12 * (u1 - u0) and abs(nv - b) <= 1e-12 * (v1 - v0)
+               for a, b in list(known) + out):
+            continue
+        out.append((nu, nv))
+    return out
+
+
 def _inside_or_on(domain, U, V):
     """Which (U, V) lie in the closed trimmed domain (rectangles: all)."""
     U = np.asarray(U, dtype=float)
     if getattr(domain, "is_rectangle", False):
         return np.ones(U.shape, dtype=bool)
     span = 1e-9 * (domain.v_range[1] - domain.v_range[0])
-    idx, lo, hi = domain.v_intervals(U)
+    (u0, u1), du = domain.u_range, 1e-9 * (domain.u_range[1] - domain.u_range[0])
+    # the ends of the u range as their limits from inside (the domain's sides are closed)
+    idx, lo, hi = domain.v_intervals(np.clip(U, u0 + du, u1 - du))
     hit = (V[idx] >= lo - span) & (V[idx] <= hi + span)
     ok = np.zeros(U.shape, dtype=bool)
     ok[idx[hit]] = True
@@ -238,10 +304,14 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
     """Nested-neighbourhood audit around a degenerate point.
 
     For the boxes B_k (the point's quadrants shrunk by 2^-k, r_k = r0 2^-k) it integrates the
-    area A_k and E_k = int_{B_k} |K| dA (and K+, K-) through the graded map, samples max |K|,
-    fits E_k ~ r_k^p, and forms I_D, I_D+, I_D- of the complement. Returns evidence and a
-    verdict: 'regular' (|K| bounded: parameterisation degeneracy), 'convergent' (unbounded
-    |K|, E_k -> 0 with p > CONVERGENT_POWER), 'divergent' (E_k does not decay),
+    area A_k and E_k = int_{B_k} |K| dA (and K+, K-) through the graded map, samples max |K|
+    on the boxes' outer edges, fits E_k ~ r_k^p, and forms I_D, I_D+, I_D- of the complement.
+    The first AUDIT_FIRST_LEVELS boxes decide a bounded case, or a convergent one with p above
+    FIRST_CLEAR_POWER; any other
+    verdict is decided on the innermost of levels boxes (from AUDIT_FIT_FROM on), since a
+    curvature peak confined to a small core shows its power law only there. Returns evidence
+    and a verdict: 'regular' (|K| bounded: parameterisation degeneracy), 'convergent'
+    (unbounded |K|, E_k -> 0 with p > CONVERGENT_POWER), 'divergent' (E_k does not decay),
     'inconclusive', or 'not_audited' (no quadrant lies inside the trimmed domain).
     """
     pu, pv = point
@@ -249,32 +319,14 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
     if not mine:
         return {"point": [pu, pv], "verdict": "not_audited",
                 "reason": "the neighbourhood of the point is crossed by trim curves"}
-    # Only the area and the K integrals matter here: the class areas get the face's area
-    # as their tolerance reference, and no cell is integrated on lines (the kink of |K| on
-    # K = 0 is left to the quadtree's own error estimate).
-    ref = {q: abs(totals.get("A", 0.0)) for q in ("A_flat", "A_single", "A_elliptic", "A_saddle")}
-    rows = []
-    for k in range(levels):
-        sk = 2.0 ** (-k / m)  # s = (r / r0)^(1/m)
-        acc = {"area": 0.0, "int_abs_K": 0.0, "int_K_plus": 0.0, "int_K_minus": 0.0}
-        conv = True
-        for q in mine:
-            res = integrate(TrimmedDomain.rectangle(0.0, sk, 0.0, sk), GradedQuadrantField(face_field, q, m),
-                            tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth, recheck=False,
-                            class_max_depth=0, reference=ref, lines=False)
-            acc["area"] += res.values["A"]
-            for key in ("int_abs_K", "int_K_plus", "int_K_minus"):
-                acc[key] += res.values[key]
-            conv &= bool(res.converged["int_abs_K"])
-        g = np.linspace(0.02, 0.98, 9)
-        kmax = []
-        for q in mine:
-            S, T = np.meshgrid(g * sk, g * sk, indexing="ij")
-            f = GradedQuadrantField(face_field, q, m)(S.ravel(), T.ravel())
-            if f["regular"].any():
-                kmax.append(float(np.nanmax(np.abs(np.where(f["regular"], f["K"], np.nan)))))
-        rows.append({"r_u": mine[0].ru * 2.0 ** -k, "r_v": mine[0].rv * 2.0 ** -k, **acc,
-                     "max_abs_K": max(kmax) if kmax else None, "converged": conv})
+    first = min(AUDIT_FIRST_LEVELS, levels)
+    rows = [_audit_row(face_field, mine, k, totals, tau_H, tau_K, order, rtol, max_depth, m) for k in range(first)]
+    verdict, power, growth = _decay_verdict(rows, 0)
+    clear = verdict == "regular" or (verdict == "convergent" and power > FIRST_CLEAR_POWER)
+    if not clear and levels > first:
+        rows += [_audit_row(face_field, mine, k, totals, tau_H, tau_K, order, rtol, max_depth, m)
+                 for k in range(first, levels)]
+        verdict, power, growth = _decay_verdict(rows, min(AUDIT_FIT_FROM, levels - 3))
     A, absK = totals["A_valid"], totals["int_abs_K"]
     L2 = lref ** 2
     for row in rows:
@@ -284,31 +336,101 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
         row["I_D_complement"] = L2 * (absK - row["int_abs_K"]) / Ac if Ac > 0 else None
         row["I_D_plus_complement"] = L2 * (totals["int_K_plus"] - row["int_K_plus"]) / Ac if Ac > 0 else None
         row["I_D_minus_complement"] = L2 * (totals["int_K_minus"] - row["int_K_minus"]) / Ac if Ac > 0 else None
-    r = np.array([row["r_u"] for row in rows])
-    E = np.array([row["int_abs_K"] for row in rows])
-    ok = E > 0
-    power = float(np.polyfit(np.log(r[ok]), np.log(E[ok]), 1)[0]) if ok.sum() >= 3 else None
-    kmax = [row["max_abs_K"] for row in rows if row["max_abs_K"] is not None]
-    growth = (kmax[-1] / kmax[0]) if len(kmax) >= 2 and kmax[0] > 0 else 1.0
     seq = [row["I_D_complement"] for row in rows if row["I_D_complement"] is not None]
     changes = [abs(b - a) / abs(b) if b else 0.0 for a, b in zip(seq[:-1], seq[1:])]
-    if growth < UNBOUNDED_GROWTH:
-        verdict = "regular"
-    elif power is not None and power > CONVERGENT_POWER:
-        verdict = "convergent"
-    elif power is not None and power <= 0.0:
-        verdict = "divergent"
-    else:
-        verdict = "inconclusive"
     return {"point": [pu, pv], "verdict": verdict, "decay_power": power, "max_abs_K_growth": growth,
             "I_D_relative_changes": changes, "neighbourhoods": rows}
 
 
-def probe_side(face_field, domain, side, u_breaks, v_breaks, levels=12):
-    """Boundedness of |K| approaching a collapsed side: samples on lines r0 2^-k from it."""
+def _audit_row(face_field, quadrants, k, totals, tau_H, tau_K, order, rtol, max_depth, m):
+    """Integrals over the box B_k of a point's quadrants and max |K| on its outer edges."""
+    # Only the area and the K integrals matter here: the class areas get the face's area
+    # as their tolerance reference, and no cell is integrated on lines (the kink of |K| on
+    # K = 0 is left to the quadtree's own error estimate).
+    ref = {q: abs(totals.get("A", 0.0)) for q in ("A_flat", "A_single", "A_elliptic", "A_saddle")}
+    sk = 2.0 ** (-k / m)  # s = (r / r0)^(1/m)
+    acc = {"area": 0.0, "int_abs_K": 0.0, "int_K_plus": 0.0, "int_K_minus": 0.0}
+    conv = True
+    for q in quadrants:
+        res = integrate(TrimmedDomain.rectangle(0.0, sk, 0.0, sk), GradedQuadrantField(face_field, q, m),
+                        tau_H, tau_K, order=order, rtol=rtol, max_depth=max_depth, recheck=False,
+                        class_max_depth=0, reference=ref, lines=False)
+        acc["area"] += res.values["A"]
+        for key in ("int_abs_K", "int_K_plus", "int_K_minus"):
+            acc[key] += res.values[key]
+        conv &= bool(res.converged["int_abs_K"])
+    # |K| on the outer edges of B_k, at distance r_k from the point: its growth over the
+    # boxes tells bounded from unbounded curvature (samples nearer the point may be
+    # non-regular and say nothing)
+    g = np.linspace(0.0, 1.0, 17)
+    kmax = []
+    for q in quadrants:
+        f = GradedQuadrantField(face_field, q, m)(np.concatenate([np.full(g.size, sk), g * sk]),
+                                                  np.concatenate([g * sk, np.full(g.size, sk)]))
+        if f["regular"].any():
+            kmax.append(float(np.nanmax(np.abs(np.where(f["regular"], f["K"], np.nan)))))
+    return {"r_u": quadrants[0].ru * 2.0 ** -k, "r_v": quadrants[0].rv * 2.0 ** -k, **acc,
+            "max_abs_K": max(kmax) if kmax else None, "converged": conv}
+
+
+def _decay_verdict(rows, fit_from, unbounded=False):
+    """(verdict, p, growth) of nested neighbourhoods rows (r_u, int_abs_K, max_abs_K), from
+    rows[fit_from:]: the power p of E_k ~ r_k^p and the growth of max |K|. Growth below
+    UNBOUNDED_GROWTH, or p >= BOUNDED_POWER (E_k shrinking with the area, as for bounded K)
+    is 'regular'; else p decides 'convergent' (p > CONVERGENT_POWER), 'divergent' (p <= 0)
+    or 'inconclusive'. unbounded: the growth is known to be unbounded (not tested here)."""
+    r = np.array([row["r_u"] for row in rows[fit_from:]])
+    E = np.array([row["int_abs_K"] for row in rows[fit_from:]])
+    ok = E > 0
+    power = float(np.polyfit(np.log(r[ok]), np.log(E[ok]), 1)[0]) if ok.sum() >= 3 else None
+    kmax = [row["max_abs_K"] for row in rows[fit_from:] if row["max_abs_K"] is not None]
+    growth = (kmax[-1] / kmax[0]) if len(kmax) >= 2 and kmax[0] > 0 else 1.0
+    # bounded K: no growth, or the integral shrinking with the area (E_k ~ r_k^2)
+    if (growth < UNBOUNDED_GROWTH and not unbounded) or (power is not None and power >= BOUNDED_POWER):
+        return "regular", power, growth
+    if power is not None and power > CONVERGENT_POWER:
+        return "convergent", power, growth
+    if power is not None and power <= 0.0:
+        return "divergent", power, growth
+    return "inconclusive", power, growth
+
+
+class GradedStripField:
+    """Field on (s, w) in [0, 1]^2 of the strip of width r along a side x of the parameter
+    rectangle, through the graded map (u, v) = (x + sign r s^m, w') for a u side (w' the
+    other parameter over its range [w0, w1]; the roles exchanged for a v side); J is
+    multiplied by the map's Jacobian m r s^(m-1) (w1 - w0), and by 0 outside a trimmed
+    domain when one is given (the strip's part inside the face; its integral then converges
+    only like the cell size at the trim curve, enough for the decay power)."""
+
+    def __init__(self, face_field, side, x, r, w_range, m=GRADING_POWER, domain=None):
+        self.ff, self.side, self.x, self.r, self.w_range, self.m = face_field, side, x, r, w_range, m
+        self.domain = domain  # a trimmed domain: J = 0 outside it
+
+    def __call__(self, s, t):
+        s = np.asarray(s, dtype=float)
+        w0, w1 = self.w_range
+        sign = 1.0 if self.side in ("u0", "v0") else -1.0
+        a = self.x + sign * self.r * s ** self.m
+        b = w0 + (w1 - w0) * np.asarray(t, dtype=float)
+        u, v = (a, b) if self.side in ("u0", "u1") else (b, a)
+        f = self.ff(u, v)
+        jac = self.m * self.r * s ** (self.m - 1) * (w1 - w0)
+        if self.domain is not None:
+            shape = np.shape(u)
+            jac = jac * _inside_or_on(self.domain, np.ravel(u), np.ravel(v)).reshape(shape)
+        return {"J": f["J"] * jac, "K": f["K"], "H": f["H"], "regular": f["regular"]}
+
+
+def probe_side(face_field, domain, side, u_breaks, v_breaks, levels=12, order=5, m=GRADING_POWER):
+    """Behaviour of |K| approaching a collapsed side: max |K| on lines r_k = r0 2^-k from it
+    and, on an untrimmed face, the |K| integral E_k over the strip of width r_k along the side
+    (graded map GradedStripField), fitted as E_k ~ r_k^p on the innermost strips. Verdict as
+    audit_point's: 'regular' (|K| bounded), 'convergent' (p > CONVERGENT_POWER), 'divergent'
+    (p <= 0), else 'inconclusive'. On a trimmed face the strips are cut by the domain."""
     (u0, u1), (v0, v1) = domain.u_range, domain.v_range
     g = np.linspace(0.01, 0.99, 41)
-    kmax = []
+    kmax, radii = [], []
     for k in range(levels):
         if side in ("v0", "v1"):
             x = v0 if side == "v0" else v1
@@ -320,10 +442,35 @@ def probe_side(face_field, domain, side, u_breaks, v_breaks, levels=12):
             r = grading_radius(x, u0, u1, u_breaks) * 2.0 ** -k
             V = v0 + (v1 - v0) * g
             U = np.full_like(V, x + r if side == "u0" else x - r)
+        radii.append(r)
         f = face_field(U, V)
         Kr = np.where(f["regular"], np.abs(f["K"]), np.nan)
         kmax.append(float(np.nanmax(Kr)) if np.isfinite(Kr).any() else None)
     finite = [k for k in kmax if k is not None]
     growth = finite[-1] / finite[0] if len(finite) >= 2 and finite[0] > 0 else 1.0
-    return {"side": side, "verdict": "regular" if growth < UNBOUNDED_GROWTH else "inconclusive",
-            "max_abs_K_growth": growth, "max_abs_K": kmax}
+    out = {"side": side, "max_abs_K_growth": growth, "max_abs_K": kmax}
+    if growth < UNBOUNDED_GROWTH:
+        out["verdict"] = "regular"
+        return out
+    x = {"u0": u0, "u1": u1, "v0": v0, "v1": v1}[side]
+    trimmed = not getattr(domain, "is_rectangle", False)
+    w_range = (v0, v1) if side in ("u0", "u1") else (u0, u1)
+
+    def strip(k):
+        r = radii[k]
+        res = integrate(TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0),
+                        GradedStripField(face_field, side, x, r, w_range, m, domain if trimmed else None),
+                        1.0, 1.0, order=order, rtol=1e-6, max_depth=3, recheck=False, class_max_depth=0, lines=False)
+        return {"r_u": r, "int_abs_K": res.values["int_abs_K"], "max_abs_K": kmax[k]}
+
+    # as audit_point: the first strips decide a convergent case, the innermost any other
+    first = min(AUDIT_FIRST_LEVELS, levels)
+    rows = [strip(k) for k in range(first)]
+    verdict, power, _ = _decay_verdict(rows, 0, unbounded=True)
+    if not (verdict == "convergent" and power > FIRST_CLEAR_POWER) and levels > first:
+        rows += [strip(k) for k in range(first, levels)]
+        verdict, power, _ = _decay_verdict(rows, levels // 2, unbounded=True)
+    out["strip_abs_K"] = [row["int_abs_K"] for row in rows]
+    out["decay_power"] = power
+    out["verdict"] = verdict
+    return out

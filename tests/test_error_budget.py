@@ -1,0 +1,143 @@
+"""Refinement driven by the error estimates within a point budget, one error budget for the
+whole shape, and the nested-neighbourhood audit's decisions (brep.quadrature.integrate with
+depth_limit, brep.backend metric rules, brep.singular.audit_point and probe_side)."""
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from hullprod_wb.brep import singular
+from hullprod_wb.brep.backend import _global_converged, face_point_budgets, quadrature_options
+from hullprod_wb.brep.quadrature import QUANTITIES, integrate
+from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+from hullprod_wb.core.errors import InputError
+
+TAU_H, TAU_K = 1e-4, 1e-3
+SQUARE = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0)
+
+
+def corner_field(a):
+    """J = 1, K = r^-a at the corner (0, 0) of the unit square (r = |(u, v)|), H = K."""
+    def f(u, v):
+        u, v = np.asarray(u, float), np.asarray(v, float)
+        K = np.maximum(np.hypot(u, v), 1e-300) ** -a
+        return {"J": np.ones_like(u), "K": K, "H": K, "regular": np.ones(u.shape, bool)}
+    return f
+
+
+def test_point_singularity_is_resolved_deeper_than_the_paper_depth_with_few_points():
+    # int_[0,1]^2 r^-1.5 du dv = 4 int_0^(pi/4) cos(theta)^-1/2 dtheta (polar coordinates):
+    # the corner needs many levels, the rest few
+    from scipy.integrate import quad
+    f = corner_field(1.5)
+    exact = 4 * quad(lambda t: math.cos(t) ** -0.5, 0.0, math.pi / 4, epsabs=0, epsrel=1e-13)[0]
+    r = integrate(SQUARE, f, TAU_H, TAU_K, depth_limit=30, point_budget=2_000_000)
+    assert r.converged["int_abs_K"] and not r.budget_spent
+    assert r.depth_reached > 6
+    assert abs(r.values["int_abs_K"] - exact) <= 1e-4 * exact
+    # refinement went to the corner only: far fewer points than one uniform level that deep
+    assert r.n_points < 25 * 4 ** 6 < 25 * 4 ** r.depth_reached
+    # the paper's fixed protocol (depth 5, recheck at 6) leaves it unresolved
+    p = integrate(SQUARE, f, TAU_H, TAU_K)
+    assert not p.recheck.converged["int_abs_K"]
+
+
+def test_point_budget_stops_the_refinement_and_says_so():
+    f = corner_field(1.0)
+    r = integrate(SQUARE, f, TAU_H, TAU_K, rtol=1e-12, depth_limit=30, point_budget=20_000)
+    assert r.budget_spent and not r.converged["int_abs_K"]
+    # the budget bounds the quadtree's points; the lines of the last level's mixed cells
+    # come on top
+    free = integrate(SQUARE, f, TAU_H, TAU_K, rtol=1e-12, depth_limit=30, point_budget=200_000)
+    assert r.n_points < 2 * 20_000 < free.n_points
+    assert len(r.unconverged_cells) > 0  # what is left unresolved is reported
+
+
+def _face(values, errors, tolerances):
+    q = SimpleNamespace(values=values, errors=errors,
+                        converged={k: errors[k] <= tolerances[k] for k in values})
+    return SimpleNamespace(quad=q)
+
+
+def test_a_sliver_unconverged_on_its_own_converges_under_the_global_budget():
+    big = {k: 1.0 for k in QUANTITIES}
+    sliver = {k: 1e-5 for k in QUANTITIES}
+    faces = [_face(big, {k: 1e-6 for k in QUANTITIES}, {k: 1e-4 for k in QUANTITIES}),
+             # the sliver's error is 10 % of its own integrals (never its own 1e-4) ...
+             _face(sliver, {k: 1e-6 for k in QUANTITIES}, {k: 1e-9 for k in QUANTITIES})]
+    assert not faces[1].quad.converged["int_abs_K"]
+    # ... but 2e-6 in all against the total's 1e-4 tolerance
+    assert _global_converged(faces, "int_abs_K", 1e-4)
+    # the same error on the large face's scale is not negligible
+    faces[1].quad.errors = {k: 2e-4 for k in QUANTITIES}
+    assert not _global_converged(faces, "int_abs_K", 1e-4)
+
+
+def test_face_budgets_follow_the_area_with_a_floor():
+    opts = quadrature_options(point_budget=1_000_000)
+    b = face_point_budgets(opts, np.array([0.9, 0.0999, 0.0001]))
+    assert b[0] == 900_000 and b[1] == 100_000 and b[2] == 100_000
+    assert face_point_budgets(quadrature_options(protocol="paper"), np.array([1.0])) == [None]
+    with pytest.raises(InputError):
+        quadrature_options(protocol="fixed")
+    with pytest.raises(InputError):
+        quadrature_options(point_budget=0)
+
+
+def _audit(a):
+    q = singular.Quadrant(0.0, 0.0, 1, 1, 0.5, 0.5)
+    f = corner_field(a)
+    totals = {k: 1.0 for k in QUANTITIES}
+    return singular.audit_point(f, (0.0, 0.0), [q], totals, 1.0, TAU_H, TAU_K)
+
+
+def test_audit_decides_a_convergent_improper_integral():
+    # |K| J = r^-1: int over B_r ~ r, unbounded K
+    out = _audit(1.0)
+    assert out["verdict"] == "convergent"
+    assert out["decay_power"] == pytest.approx(1.0, abs=0.05)
+    assert out["max_abs_K_growth"] > singular.UNBOUNDED_GROWTH
+
+
+def test_audit_decides_a_divergent_integral():
+    # |K| J = r^-2.5: int over B_r diverges like r^-0.5
+    out = _audit(2.5)
+    assert out["verdict"] == "divergent"
+    assert out["decay_power"] < 0.0
+    assert len(out["neighbourhoods"]) == singular.AUDIT_LEVELS  # decided on the innermost boxes
+
+
+def test_audit_sees_a_bounded_peak_as_regular():
+    q = singular.Quadrant(0.0, 0.0, 1, 1, 0.5, 0.5)
+
+    def f(u, v):
+        u, v = np.asarray(u, float), np.asarray(v, float)
+        K = 1.0 / (0.1 + np.hypot(u, v))  # peaks at the corner, bounded
+        return {"J": np.ones_like(u), "K": K, "H": K, "regular": np.ones(u.shape, bool)}
+    out = singular.audit_point(f, (0.0, 0.0), [q], {k: 1.0 for k in QUANTITIES}, 1.0, TAU_H, TAU_K)
+    assert out["verdict"] == "regular"
+
+
+def test_collapsed_side_strips_decide_convergence():
+    # K = d^-1.5 at distance d from the side u = 0, J = 1: strip integrals ~ r^-0.5 + ... ->
+    # divergent; K = d^-0.5: ~ r^0.5 -> convergent
+    def side_field(a):
+        def f(u, v):
+            u, v = np.asarray(u, float), np.asarray(v, float)
+            K = np.maximum(u, 1e-300) ** -a
+            return {"J": np.ones_like(u), "K": K, "H": K, "regular": np.ones(u.shape, bool)}
+        return f
+    conv = singular.probe_side(side_field(0.5), SQUARE, "u0", [], [])
+    div = singular.probe_side(side_field(1.5), SQUARE, "u0", [], [])
+    assert conv["verdict"] == "convergent" and conv["decay_power"] == pytest.approx(0.5, abs=0.05)
+    assert div["verdict"] == "divergent" and div["decay_power"] < 0.0
+
+
+def test_stalled_refinement_is_located_at_the_knot_grid_node():
+    f = corner_field(1.5)
+    r = integrate(SQUARE, f, TAU_H, TAU_K, rtol=1e-10, depth_limit=30, point_budget=30_000)
+    assert not r.converged["int_abs_K"]
+    pts = singular.points_from_refinement([r], SQUARE, [], [])
+    assert pts == [(0.0, 0.0)]
+    assert singular.points_from_refinement([r], SQUARE, [], [], known=[(0.0, 0.0)]) == []
