@@ -141,3 +141,20 @@ def test_stalled_refinement_is_located_at_the_knot_grid_node():
     pts = singular.points_from_refinement([r], SQUARE, [], [])
     assert pts == [(0.0, 0.0)]
     assert singular.points_from_refinement([r], SQUARE, [], [], known=[(0.0, 0.0)]) == []
+
+
+def test_faces_that_carry_the_excess_error_are_refined_again():
+    from hullprod_wb.brep.backend import faces_to_refine
+    ok = {k: 1e-7 for k in QUANTITIES}
+    big = {k: 1.0 for k in QUANTITIES}
+    faces = [_face(big, dict(ok), {k: 1e-4 for k in QUANTITIES}) for _ in range(3)]
+    for f in faces:
+        f.quad.budget_spent = False
+    assert faces_to_refine(faces, 1e-4) == []
+    # face 1 stopped by its budget with an error beyond the total's tolerance (3e-4)
+    faces[1].quad.errors = dict(ok, int_abs_K=5e-3)
+    faces[1].quad.budget_spent = True
+    assert faces_to_refine(faces, 1e-4) == [1]
+    # a face that met its own tolerance is not refined again, whatever the others do
+    faces[2].quad.errors = dict(ok, int_abs_K=5e-3)
+    assert faces_to_refine(faces, 1e-4) == [1]

@@ -59,6 +59,10 @@ METRIC_QUANTITIES = {"I_D": ("int_abs_K", "A_valid"), "I_D_plus": ("int_K_plus",
 #: Tree depth and class-line halvings of a graded neighbourhood quadrant.
 QUADRANT_MAX_DEPTH = 5
 QUADRANT_CLASS_DEPTH = 1
+#: Rounds of refinement of the faces that carry the shape's excess error (faces_to_refine),
+#: each with BUDGET_GROWTH times the points (or their error's share of the points left).
+BUDGET_ROUNDS = 2
+BUDGET_GROWTH = 4
 #: Rounds of grading at knot-grid nodes where a face's refinement stalled.
 STALL_ROUNDS = 2
 #: Points per face for the pointwise cross-check against OpenCascade.
@@ -135,7 +139,7 @@ class CombinedQuadrature:
         self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
                                 for p in parts))
         self.rechecked = any(p.recheck is not None for p in parts)
-        self.budget_spent = any(getattr(f, "budget_spent", False) for f in finals[:self.n_main])
+        self.budget_spent = any(getattr(f, "budget_spent", False) for f in finals)
         # refinement sequence: the parts' level estimates summed level by level (a part
         # that stopped earlier keeps its last estimate)
         hist = [(f.history or [f.values]) for f in finals]
@@ -417,9 +421,13 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     main_values = {k: sum(_final(p).values[k] for p in parts) for k in QUANTITIES}
     share = {k: abs(v) / (2.0 * max(len(quads), 1)) for k, v in main_values.items()}
     qkw = dict(kw, max_depth=min(opts["max_depth"], QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
+    if opts.get("protocol") != "paper":  # refined by the error too, within a share of the face's points
+        qkw.update(depth_limit=opts["depth_limit"],
+                   point_budget=None if point_budget is None else max(1, int(point_budget) // 2))
     for q in quads:
         parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,
                                reference=share, **qkw))
+
     return CombinedQuadrature(parts, n_main)
 
 
@@ -638,6 +646,27 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
             source.close()
 
 
+def faces_to_refine(faces, rtol):
+    """Indices of the faces to refine again with more points: for every quantity whose
+    summed error estimate exceeds its total's tolerance (_global_tolerance), the faces whose
+    refinement the point budget stopped, largest error first, until the others' errors fit
+    half that tolerance."""
+    out = set()
+    for q in QUANTITIES:
+        tol = _global_tolerance(faces, q, rtol)
+        errs = [f.quad.errors[q] for f in faces]
+        if sum(errs) <= tol:
+            continue
+        rest = sum(errs)
+        for i in sorted(range(len(faces)), key=lambda i: -errs[i]):
+            if rest <= 0.5 * tol:
+                break
+            if faces[i].quad.budget_spent:
+                out.add(i)
+            rest -= errs[i]
+    return sorted(out)
+
+
 def face_point_budgets(opts, weights):
     """Point budget of each face (None: no limit, the paper's protocol): its share weights
     (n,) of opts["point_budget"], at least FACE_POINT_FLOOR."""
@@ -774,6 +803,22 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
 
     results = map_faces(face_work, len(inp.faces), n_jobs, cost=cost, on_done=finished,
                         labels=["Face%d" % n for n, _ in inp.faces], while_waiting=shape_records)
+    for _ in range(BUDGET_ROUNDS if opts["protocol"] != "paper" else 0):
+        # the faces that carry the shape's excess error, again with more points
+        redo = faces_to_refine(results, opts["rtol"])
+        if not redo:
+            break
+        used = sum(f.quad.n_points for f in results)
+        share = np.array([sum(f.quad.errors[q] for q in QUANTITIES[2:5]) for f in (results[i] for i in redo)])
+        share = share / share.sum() if share.sum() > 0 else np.full(len(redo), 1.0 / len(redo))
+        for i, w in zip(redo, share):
+            face_budgets[i] = max(BUDGET_GROWTH * face_budgets[i], int(max(opts["point_budget"] - used, 0) * w))
+        progress(0.95, "refining %d face(s) that carry the shape's error: %s"
+                 % (len(redo), ", ".join("Face%d" % inp.faces[i][0] for i in redo)))
+        again = map_faces(lambda k: face_work(redo[k]), len(redo), min(n_jobs, len(redo)),
+                          cost=[face_budgets[i] for i in redo], labels=["Face%d" % inp.faces[i][0] for i in redo])
+        for i, f in zip(redo, again):
+            results[i] = f
     if recorded:  # what the reading process made last: provenance, OpenCascade's values
         tp = time.perf_counter()
         late = inp.late(with_fields, display_deflection)
