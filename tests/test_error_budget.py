@@ -158,3 +158,37 @@ def test_faces_that_carry_the_excess_error_are_refined_again():
     # a face that met its own tolerance is not refined again, whatever the others do
     faces[2].quad.errors = dict(ok, int_abs_K=5e-3)
     assert faces_to_refine(faces, 1e-4) == [1]
+
+
+@pytest.mark.parametrize("eps", [1e-6, 1e-9, 0.0])
+def test_near_threshold_band_has_converged_class_fractions(eps):
+    # K within eps tau_K of tau_K over the whole face, crossing it at u = 1/4 (eps > 0):
+    # elliptic for u > 1/4, single below; K == tau_K everywhere (eps = 0) is single
+    def f(u, v):
+        u, v = np.asarray(u, float), np.asarray(v, float)
+        return {"J": np.ones_like(u), "K": TAU_K * (1 + eps * (u - 0.25)) + 0 * v, "H": np.ones_like(u),
+                "regular": np.ones(u.shape, bool)}
+    r = integrate(SQUARE, f, TAU_H, TAU_K, depth_limit=30, point_budget=2_000_000)
+    exact = 0.75 if eps else 0.0
+    assert r.converged["A_elliptic"] and r.converged["A_single"]
+    # the true error within the tolerance the quadrature reports as met
+    assert abs(r.values["A_elliptic"] - exact) <= r.tolerances["A_elliptic"]
+    assert r.values["A_elliptic"] + r.values["A_single"] == pytest.approx(1.0, abs=1e-12)
+
+
+def test_threshold_band_is_the_area_near_the_thresholds():
+    from hullprod_wb.brep.backend import threshold_band
+    from hullprod_wb.core.thresholds import Thresholds
+    th = Thresholds(1.0, 1e-4, 1e-4)  # tau_H = tau_K = 1e-4
+    # two unit squares of nodes: the left one's K in the K band, H far from its band
+    P = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]], float)
+    T = np.array([[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]])
+    K = np.array([1.05e-4, 1e-4, 1e-4, 0.95e-4, 1.0, 1.0])
+    H = np.full(6, 1.0)
+    out = threshold_band(SimpleNamespace(points=P, triangles=T, K=K, H=H, valid=np.ones(6, bool)), th)
+    # nodes 0 to 3 are in the K band: their shares of the triangles' areas
+    w = np.zeros(6)
+    for t in T:
+        w[t] += 0.5 / 3
+    assert out["K_band_area_fraction"] == pytest.approx(w[:4].sum() / w.sum(), rel=1e-12)
+    assert out["H_band_area_fraction"] == 0.0

@@ -59,6 +59,8 @@ METRIC_QUANTITIES = {"I_D": ("int_abs_K", "A_valid"), "I_D_plus": ("int_K_plus",
 #: Tree depth and class-line halvings of a graded neighbourhood quadrant.
 QUADRANT_MAX_DEPTH = 5
 QUADRANT_CLASS_DEPTH = 1
+#: Relative width of the threshold bands recorded with the class fractions (threshold_band).
+THRESHOLD_BAND = 0.1
 #: Rounds of refinement of the faces that carry the shape's excess error (faces_to_refine),
 #: each with BUDGET_GROWTH times the points (or their error's share of the points left).
 BUDGET_ROUNDS = 2
@@ -646,6 +648,30 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
             source.close()
 
 
+def threshold_band(fields, th, width=THRESHOLD_BAND):
+    """Share of the valid area where K lies within width tau_K of +-tau_K, and where H lies
+    within width tau_H of +-tau_H, at the display tessellation's nodes (each node weighted by
+    a third of its triangles' areas): the area whose class would change with a threshold
+    moved by that much, i.e. how sensitive the class fractions are to the thresholds
+    (eq:class_thresholds)."""
+    P, T = np.asarray(fields.points, float), np.asarray(fields.triangles, int)
+    if T.size == 0:
+        return None
+    a = 0.5 * np.linalg.norm(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), axis=1)
+    w = np.bincount(T.ravel(), weights=np.repeat(a / 3.0, 3), minlength=len(P))
+    w = np.where(np.asarray(fields.valid, bool), w, 0.0)
+    total = w.sum()
+    if total <= 0:
+        return None
+    K, H = np.abs(np.asarray(fields.K, float)), np.abs(np.asarray(fields.H, float))
+    with np.errstate(invalid="ignore"):
+        k_band = np.abs(K - th.tau_K) <= width * th.tau_K
+        h_band = np.abs(H - th.tau_H) <= width * th.tau_H
+    return {"relative_width": width, "K_band_area_fraction": float(w[k_band].sum() / total),
+            "H_band_area_fraction": float(w[h_band].sum() / total),
+            "source": "display tessellation nodes"}
+
+
 def faces_to_refine(faces, rtol):
     """Indices of the faces to refine again with more points: for every quantity whose
     summed error estimate exceeds its total's tolerance (_global_tolerance), the faces whose
@@ -853,6 +879,10 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     timings["provenance"] += time.perf_counter() - t
 
     fields = display_fields(samples, ref.value, th) if with_fields else None
+    if fields is not None:
+        band = threshold_band(fields, th)
+        for m in ("a_flat", "a_single", "a_elliptic", "a_saddle"):
+            validity[m].evidence["threshold_band"] = band
     points = sum(r["points"] for r in rows)
     timings["total"] = time.perf_counter() - t0
     info = dict(inp.info)
