@@ -65,6 +65,9 @@ THRESHOLD_BAND = 0.1
 #: each with BUDGET_GROWTH times the points (or their error's share of the points left).
 BUDGET_ROUNDS = 2
 BUDGET_GROWTH = 4
+#: A face integrated again disagrees with its earlier integration when their values differ by
+#: more than this multiple of their summed error estimates: the estimates are not to be trusted.
+DISAGREEMENT_SAFETY = 1.0
 #: Rounds of grading at knot-grid nodes where a face's refinement stalled.
 STALL_ROUNDS = 2
 #: Points per face for the pointwise cross-check against OpenCascade.
@@ -185,6 +188,7 @@ class FaceAssessment:
         self.surface_type = ff.surface_type
         self.kind = ff.kind
         self.cross_check = None
+        self.disagreement = {}  # quantity -> [earlier, finer] where a second integration disagreed
 
     @property
     def result(self):
@@ -476,6 +480,8 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
             status = Status.VALID_STAR
         else:
             status = Status.VALID
+        if getattr(f, "disagreement", None) and status in (Status.VALID, Status.VALID_STAR):
+            status = Status.CAUTION
         rows.append({
             "face": f.number, "surface_type": f.surface_type, "evaluation": f.kind,
             "area": r.values["A"], "valid_area": r.values["A_valid"],
@@ -484,6 +490,7 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
             "I_D": vals["I_D"], "I_D_plus": vals["I_D_plus"], "I_D_minus": vals["I_D_minus"],
             "a_C": {n: vals[m] for n, m in zip(CLASS_NAMES, CLASS_METRICS)},
             "status": status.value, "converged": bool(r.all_converged),
+            "refinements_disagree": dict(getattr(f, "disagreement", None) or {}),
             "points": int(f.quad.n_points),
             "depth_reached": int(r.depth_reached), "trimmed": not f.domain.is_rectangle,
             "domain": ("polygon from the 3-D edges (%s)" % f.domain.fallback) if f.domain.fallback
@@ -567,6 +574,14 @@ def metric_validity(faces, integrals, values, opts, history):
                                  "convergent improper integral: |K| is unbounded at %d degenerate point(s); the "
                                  "excluded |K| integral decays like r^%.2f" % (len(pw), min(pw)),
                                  "convergent_improper", rep, valid, evidence)
+        elif _disagreeing(faces, num, den):
+            bad = _disagreeing(faces, num, den)
+            evidence["disagreeing_refinements"] = bad
+            rec = MetricValidity(Status.CAUTION, values[m],
+                                 "face(s) %s: a finer integration differs from the earlier one by more than their "
+                                 "error estimates, which are therefore not reliable there"
+                                 % ",".join(str(b["face"]) for b in bad), "error_estimate_unreliable",
+                                 rep, valid, evidence)
         elif fallback:
             evidence["approximate_domains"] = fallback
             rec = MetricValidity(Status.CAUTION, values[m],
@@ -590,6 +605,19 @@ def metric_validity(faces, integrals, values, opts, history):
             rec.reason = (rec.reason + "; " if rec.reason else "") + (
                 "face(s) %s: trim curves do not close, domain from the 3-D edges" % ",".join(map(str, fallback)))
         out[m] = rec
+    return out
+
+
+def _disagreeing(faces, num, den):
+    """Faces integrated again whose two integrations disagree (beyond their error estimates)
+    on the quantities of a metric (numerator num, denominator den), with both values."""
+    qs = {num, den} if den != "A_classified" else {num, "A_flat", "A_single", "A_elliptic", "A_saddle"}
+    out = []
+    for f in faces:
+        d = getattr(f, "disagreement", None) or {}
+        hit = {q: d[q] for q in sorted(qs) if q in d}
+        if hit:
+            out.append({"face": f.number, "values": hit})
     return out
 
 
@@ -844,6 +872,11 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         again = map_faces(lambda k: face_work(redo[k]), len(redo), min(n_jobs, len(redo)),
                           cost=[face_budgets[i] for i in redo], labels=["Face%d" % inp.faces[i][0] for i in redo])
         for i, f in zip(redo, again):
+            # the earlier and the finer integration must agree within their error estimates
+            f.disagreement = {q: [results[i].quad.values[q], f.quad.values[q]] for q in QUANTITIES
+                              if abs(f.quad.values[q] - results[i].quad.values[q])
+                              > DISAGREEMENT_SAFETY * (f.quad.errors[q] + results[i].quad.errors[q])
+                              + 1e-12 * abs(f.quad.values[q])}
             results[i] = f
     if recorded:  # what the reading process made last: provenance, OpenCascade's values
         tp = time.perf_counter()

@@ -586,6 +586,7 @@ class _Integrator:
         self._grid_inverse, self._parent_vander = grid_matrices(self.x)
         self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
         self.active, level = _patch_cells(self.patches, patch_range, max_depth)
+        self.max_depth = max_depth if max_depth is not None else 0
         pid = self.active["pid"]
         if prefetch is not None and (prefetch.order != order or not all(
                 np.array_equal(prefetch.cells[0][k], self.active[k]) for k in ("pid", "s0", "t0"))):
@@ -765,18 +766,30 @@ class _Integrator:
                 accept = np.ones(na, bool)
             else:
                 accept = _greedy_accept(err_tree[:, :N_SMOOTH], tree_budget)
+            # refinement driven by the error (point_budget given): a level whose cells may fit
+            # the whole budget (the mixed cells' line quantities still to come) is tried as
+            # the last one: all its cells are candidates, the mixed ones on lines (above
+            # max_depth, those whose interpolant is not yet accurate are split instead of
+            # taking lines of the field)
+            fit_trial = False
+            if point_budget is not None and not last and self.lines:
+                hope = err.copy()
+                hope[mixed, LINE_Q] = 0.0
+                fit_trial = last = bool(np.all(hope.sum(0) <= budget))
             lined = mixed & (accept | last) & self.lines
+            split = np.zeros(na, bool)  # mixed cells split for their interpolants' sake
             if lined.any():
                 P_tot = sum((p["pmeas"].sum() for p in self.accepted), unit["pmeas"].sum())
                 sub = {k: v[lined] for k, v in unit.items()}
                 share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
                 lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
                 interp = self._interpolants(a, ch, lined, sub, lbudget)
-                if not last and not interp["use"].all():
+                if (not last or (fit_trial and self.depth < self.max_depth)) and not interp["use"].all():
                     # a cell whose interpolant is not yet accurate is split rather than
                     # integrated on lines of the field: its children's interpolants converge
                     # fast, and four children cost less than the lines of one cell
                     keep = interp["use"]
+                    split[np.nonzero(lined)[0][~keep]] = True
                     accept[np.nonzero(lined)[0][~keep]] = False
                     lined[lined] = keep
                     sub = {k: v[keep] for k, v in sub.items()}
@@ -802,6 +815,8 @@ class _Integrator:
                 lerr[:, :3] = np.maximum(lerr[:, :3], gap)
                 unit["Q"][lined, LINE_Q] = val
                 err[lined, LINE_Q] = lerr
+            if fit_trial:  # every cell a candidate but those split for their interpolants
+                accept = ~split
             # the candidates again, on every quantity with the lines' errors (global budget)
             c = np.nonzero(accept)[0]
             if c.size and not np.all(err[c].sum(0) <= budget):

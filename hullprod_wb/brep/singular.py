@@ -64,7 +64,9 @@ class DegenerateSet:
 
     @property
     def audited_points(self):
-        return self.graded_points
+        """Degenerate points and stalled nodes (a hot spot is a regular node, J > 0: its
+        curvature is bounded, and grading it is for speed alone)."""
+        return list(self.points) + list(self.stalled)
 
     def to_dict(self):
         return {"points": [[float(u), float(v)] for u, v in self.points], "collapsed_sides": list(self.sides),
