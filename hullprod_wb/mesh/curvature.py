@@ -309,12 +309,13 @@ def _tensor_block(Vt, fc, frames, acc, sl):
         acc[3, j, sl] = w
 
 
-def vertex_curvature(vertices, faces, threads=None):
+def vertex_curvature(vertices, faces, threads=None, flags=None):
     """Rusinkiewicz (2004) curvature at every vertex (see module docstring).
 
     vertices: (n, 3) float; faces: (m, 3) int, oriented. Degenerate faces (see
-    DEGENERATE_RTOL) are ignored. threads: worker threads for the block passes (default :func:`default_threads`).
-    Returns a MeshCurvature.
+    DEGENERATE_RTOL) are ignored. threads: worker threads for the block passes (default
+    :func:`default_threads`). flags: (boundary, nonmanifold) (n,) bool vertex flags when
+    known already (topology.EdgeTable.vertex_flags), else found here. Returns a MeshCurvature.
     """
     V, F = check_arrays(vertices, faces)
     n, m = len(V), len(F)
@@ -356,7 +357,7 @@ def vertex_curvature(vertices, faces, threads=None):
     d1 = ct * uf + st * vf
     d2 = ct * vf - st * uf
     nv[:, ~has_normal] = np.nan
-    boundary, nonmanifold = vertex_flags(F, n)
+    boundary, nonmanifold = vertex_flags(F, n) if flags is None else flags
     vertex_area = sum(np.bincount(fc[j], weights=area, minlength=n) for j in range(3)) / 3.0
     vertex_area = vertex_area.astype(float, copy=False)
     return MeshCurvature(normals=nv.T, k1=k1, k2=k2, H=0.5 * (k1 + k2), K=k1 * k2, dir1=d1.T,
