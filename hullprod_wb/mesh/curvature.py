@@ -181,7 +181,7 @@ def _blocks(m, size=None):
     return [slice(a, min(a + size, m)) for a in range(0, m, size)]
 
 
-def _run(fn, blocks, threads):
+def run_blocks(fn, blocks, threads):
     """Apply fn to every block; blocks write disjoint slices, so threads may share them
     (numpy releases the GIL inside its array loops)."""
     if threads > 1 and len(blocks) > 1:
@@ -327,7 +327,7 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     # 1. Max (1999) vertex normals and the face areas.
     cn = np.empty((3, 3, m))                  # corner slot, coordinate, face
     area = np.empty(m)
-    _run(lambda sl: _normal_block(Vt, fc, cn, area, sl), blocks, threads)
+    run_blocks(lambda sl: _normal_block(Vt, fc, cn, area, sl), blocks, threads)
     nv = sum(_bincount3(fc[j], cn[j], n) for j in range(3))
     del cn
     nlen = np.sqrt(_dot(nv, nv))
@@ -338,7 +338,7 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
 
     # 2-3. Face tensors carried to the corners, accumulated with the corner areas.
     acc = np.empty((4, 3, m))
-    _run(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
+    run_blocks(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
     kmean, kx, ky, wsum = (sum(np.bincount(fc[j], weights=acc[k, j], minlength=n) for j in range(3))
                            .astype(float, copy=False) for k in range(4))
     del acc, frames

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .curvature import DEGENERATE_RTOL
+from .curvature import DEGENERATE_RTOL, default_threads, run_blocks
 
 #: Faces per block.
 BLOCK = 1 << 15
@@ -22,6 +22,12 @@ BLOCK = 1 << 15
 
 def _blocks(m):
     return [slice(a, min(a + BLOCK, m)) for a in range(0, m, BLOCK)]
+
+
+def _each_block(fn, m):
+    """fn(slice) for every block of m items, on default_threads() threads (the blocks
+    write disjoint slices)."""
+    run_blocks(fn, _blocks(m), default_threads())
 
 
 def _corners(Vt, F, sl):
@@ -71,7 +77,8 @@ def face_measures(V, F):
     Vt = np.ascontiguousarray(np.asarray(V, dtype=float).T)
     out = FaceMeasures(np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m, dtype=bool))
     sqrt3x2 = 2.0 * np.sqrt(3.0)
-    for sl in _blocks(m):
+
+    def block(sl):
         p = _corners(Vt, F, sl)
         e = [p[1] - p[0], p[2] - p[1], p[0] - p[2]]
         l2 = [_dot(ej, ej) for ej in e]
@@ -86,6 +93,7 @@ def face_measures(V, F):
         ang = [np.degrees(np.arctan2(dblA, -_dot(e[j], e[j - 1]))) for j in range(3)]
         out.min_angle[sl] = np.minimum(np.minimum(ang[0], ang[1]), ang[2])
         out.max_angle[sl] = np.maximum(np.maximum(ang[0], ang[1]), ang[2])
+    _each_block(block, m)
     return out
 
 
@@ -94,11 +102,13 @@ def unit_normals(V, F):
     m = len(F)
     Vt = np.ascontiguousarray(np.asarray(V, dtype=float).T)
     N = np.empty((3, m))
-    for sl in _blocks(m):
+
+    def block(sl):
         p = _corners(Vt, F, sl)
         n = _cross(p[1] - p[0], p[2] - p[0])
         with np.errstate(invalid="ignore", divide="ignore"):
             N[:, sl] = n / np.sqrt(_norm2(n))
+    _each_block(block, m)
     return N
 
 
@@ -106,9 +116,11 @@ def normal_angles(N, pairs):
     """Angle in degrees between the unit normals N (3, m) of each face pair (p, 2):
     atan2(|a x b|, a . b)."""
     out = np.empty(len(pairs))
-    for sl in _blocks(len(pairs)):
+
+    def block(sl):
         a = np.take(N, pairs[sl, 0], axis=1)
         b = np.take(N, pairs[sl, 1], axis=1)
         c = _cross(a, b)
         out[sl] = np.degrees(np.arctan2(np.sqrt(_norm2(c)), _dot(a, b)))
+    _each_block(block, len(pairs))
     return out

@@ -27,9 +27,11 @@ reported here, and the share of area without valid curvature is judged by the ba
 Shape quality q = 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) is 1 for an equilateral triangle,
 0.87 for a right isosceles one and tends to 0 for slivers.
 """
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
-from .curvature import check_arrays
+from .curvature import check_arrays, default_threads
 from .face_geometry import face_measures, normal_angles, unit_normals
 from .topology import edge_table
 
@@ -63,6 +65,18 @@ def summary(x):
     p = np.percentile(x, PERCENTILES, overwrite_input=True)
     vals = (lo, *p, hi, mean)
     return {k: float(v) for k, v in zip(keys, vals)}
+
+
+def summaries(arrays):
+    """name -> summary(array) for a dict of arrays, on default_threads() threads."""
+    names = list(arrays)
+    threads = default_threads()
+    if threads > 1 and len(names) > 1:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            done = list(pool.map(lambda k: summary(arrays[k]), names))
+    else:
+        done = [summary(arrays[k]) for k in names]
+    return dict(zip(names, done))
 
 
 def triangle_measures(V, F):
@@ -131,6 +145,8 @@ def mesh_quality(mesh):
     vhist = np.bincount(valence)
     if components is None:
         components = _components(n, table.edges)
+    dist = summaries({"triangle_quality": q, "min_angle_deg": amin, "max_angle_deg": amax,
+                      "edge_length": lengths, "vertex_area": vertex_area, "normal_variation_deg": nvar})
     out = {
         "counts": {"vertices": n, "faces": m, "edges": ne},
         "total_area": total,
@@ -148,13 +164,13 @@ def mesh_quality(mesh):
         "degenerate_faces_removed": int(prep.get("degenerate_faces_removed", 0)),
         "duplicate_faces": int(prep.get("duplicate_faces", 0)),
         "non_orientable_faces": int(prep.get("non_orientable_faces", 0)),
-        "triangle_quality": summary(q),
+        "triangle_quality": dist["triangle_quality"],
         "sliver_fraction": float(np.mean(q < SLIVER_Q)) if m else 0.0,
         "low_quality_fraction": float(np.mean(q < LOW_Q)) if m else 0.0,
-        "min_angle_deg": summary(amin),
-        "max_angle_deg": summary(amax),
-        "edge_length": summary(lengths),
-        "vertex_area": summary(vertex_area),
+        "min_angle_deg": dist["min_angle_deg"],
+        "max_angle_deg": dist["max_angle_deg"],
+        "edge_length": dist["edge_length"],
+        "vertex_area": dist["vertex_area"],
         "valence": {
             "histogram": {int(k): int(c) for k, c in enumerate(vhist) if c},
             "min": int(valence.min()) if n else 0,
@@ -162,7 +178,7 @@ def mesh_quality(mesh):
             "mean": float(valence.mean()) if n else 0.0,
             "interior_irregular_fraction": float(irregular.sum() / max(1, interior.sum())),
         },
-        "normal_variation_deg": dict(summary(nvar), interior_edges=interior_edges,
+        "normal_variation_deg": dict(dist["normal_variation_deg"], interior_edges=interior_edges,
                                      above_30deg=sharp,
                                      note="diagnostic only, never part of the signature"),
     }

@@ -149,8 +149,7 @@ def _binary_ply_layout(header):
 
 
 #: Bytes an OBJ of the simple layout may hold once its comment lines are dropped.
-_OBJ_BYTES = np.zeros(256, dtype=bool)
-_OBJ_BYTES[list(b" \t\r\n0123456789eE+-.vf")] = True
+_OBJ_BYTES = b" \t\r\n0123456789eE+-.vf"
 #: More comment lines than this: trimesh's reader.
 MAX_OBJ_COMMENTS = 10000
 
@@ -207,9 +206,9 @@ def _simple_obj(data):
         data = _drop_comment_lines(data)
         if data is None:
             return None
-    buf = np.frombuffer(data, dtype=np.uint8)
-    if len(buf) == 0 or not _OBJ_BYTES[buf].all():
+    if not data or data.translate(None, _OBJ_BYTES):
         return None
+    buf = np.frombuffer(data, dtype=np.uint8)
     space = buf <= 32
     start = ~space
     start[1:] &= space[:-1]

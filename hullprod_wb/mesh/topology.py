@@ -47,9 +47,14 @@ def side_keys(faces, n_vertices):
 
 
 def side_ends(faces):
-    """(lo, hi): (m, 3) lower and higher vertex of the undirected edge of each side."""
+    """(lo, hi): (m, 3) lower and higher vertex of the undirected edge of each side (int32
+    where the vertex ids allow it)."""
     F = np.asarray(faces)
-    nxt = F[:, [1, 2, 0]]
+    if len(F) and F.max() < np.iinfo(np.int32).max:
+        F = F.astype(np.int32)
+    nxt = np.empty_like(F)
+    nxt[:, :2] = F[:, 1:]
+    nxt[:, 2] = F[:, 0]
     return np.minimum(F, nxt), np.maximum(F, nxt)
 
 
@@ -96,14 +101,21 @@ class EdgeTable:
 
     def same_direction(self, faces):
         """(p,) bool per manifold edge: both faces run it the same way (their windings
-        disagree; with consistent orientation one runs a -> b, the other b -> a)."""
+        disagree; with consistent orientation one runs a -> b, the other b -> a).
+        Remembered for these faces until flip_faces."""
+        cached = getattr(self, "_same", None)
+        if cached is not None and cached[0] is faces:
+            return cached[1]
         F = np.asarray(faces)
         forward = (F < F[:, [1, 2, 0]]).ravel()   # side runs lo -> hi
-        return forward[self.pair_sides[:, 0]] == forward[self.pair_sides[:, 1]]
+        same = forward[self.pair_sides[:, 0]] == forward[self.pair_sides[:, 1]]
+        self._same = (faces, same)
+        return same
 
     def flip_faces(self, flipped):
         """Update the table after the faces flipped ((m,) bool) were reversed [a, b, c] ->
         [c, b, a]: their sides 0 and 1 trade places, side 2 stays."""
+        self._same = None
         if not np.any(flipped):
             return
         se = self.side_edge
