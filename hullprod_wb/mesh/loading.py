@@ -295,6 +295,8 @@ def orient_faces(V, F, table):
     out[inv] = out[inv][:, ::-1]
     reversed_faces = flip ^ inv
     table.flip_faces(reversed_faces)
+    if not reversed_faces.any():
+        out = F          # unchanged: the same array, whose winding the table remembers
     info = {
         "winding_flipped_faces": int(np.count_nonzero(flip)),
         "inverted_closed_pieces": int(np.count_nonzero(invert_piece)),

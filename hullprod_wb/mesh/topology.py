@@ -115,9 +115,9 @@ class EdgeTable:
     def flip_faces(self, flipped):
         """Update the table after the faces flipped ((m,) bool) were reversed [a, b, c] ->
         [c, b, a]: their sides 0 and 1 trade places, side 2 stays."""
-        self._same = None
         if not np.any(flipped):
             return
+        self._same = None
         se = self.side_edge
         se[flipped] = se[flipped][:, [1, 0, 2]]
         swap = np.array([1, 0, 2])
