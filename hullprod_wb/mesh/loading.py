@@ -131,6 +131,8 @@ def prepared_from_freecad(obj):
     return prepare(V, F, source)
 
 
+#: log2 of the mean number of rows in a bucket of unique_rows' counting sort.
+HASH_BUCKET_BITS = 5
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
 _MIX2 = np.uint64(0x94D049BB133111EB)
 
@@ -180,9 +182,10 @@ def unique_rows(B):
     if k == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     h = _row_hashes(B)
-    rb = max(1, int(k - 1).bit_length())
-    rows = (h >> np.uint64(64 - rb)).astype(np.int64)
-    cols = ((h >> np.uint64(64 - rb - 31)) & np.uint64(0x7FFFFFFF)).astype(np.int64)
+    # about 32 rows a bucket: the counting sort stays in cache, the sorts within buckets short
+    rb = max(1, int(k - 1).bit_length() - HASH_BUCKET_BITS)
+    rows = (h >> np.uint64(64 - rb)).astype(np.int32 if rb < 31 else np.int64)
+    cols = ((h >> np.uint64(64 - rb - 31)) & np.uint64(0x7FFFFFFF)).astype(np.int32)
     del h
     order, row, col = group_pairs(rows, cols, 1 << rb, 1 << 31)
     del rows, cols
