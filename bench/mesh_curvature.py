@@ -35,17 +35,26 @@ PHASES = ("load_s", "quality_s", "curvature_s", "signature_s")
 
 
 def write_meshes(folder, size, formats):
-    """Paths {format: file} of the torus of about size million vertices."""
+    """Paths {format: file}, vertices, faces of the torus of about size million vertices,
+    written by a child process (so that this process stays small: a child inherits the
+    peak resident memory of the process it is started from in its own rusage)."""
+    out = subprocess.run([sys.executable, os.path.abspath(__file__), "--write", folder, str(size),
+                          ",".join(formats)], capture_output=True, text=True, check=True).stdout
+    doc = json.loads(out)
+    return doc["paths"], doc["vertices"], doc["faces"]
+
+
+def _write(folder, size, formats):
+    """The --write child: the torus files, and a JSON line of their paths and counts."""
     import trimesh
     from hullprod_wb.examples.analytic_meshes import torus_mesh
     V, F = torus_mesh(TUBE_QUADS[size], pattern="random", seed=1)
     mesh = trimesh.Trimesh(V, F, process=False)
-    out = {}
+    paths = {}
     for fmt in formats:
-        path = os.path.join(folder, "torus_%gM.%s" % (size, fmt))
-        mesh.export(path)
-        out[fmt] = path
-    return out, len(V), len(F)
+        paths[fmt] = os.path.join(folder, "torus_%gM.%s" % (size, fmt))
+        mesh.export(paths[fmt])
+    print(json.dumps({"paths": paths, "vertices": len(V), "faces": len(F)}))
 
 
 def timed_child(cmd, env=None):
@@ -105,6 +114,10 @@ def summarise(runs):
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--write":
+        _write(argv[1], float(argv[2]), argv[3].split(","))
+        return 0
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="0.1,1,4", help="millions of vertices, of %s" % sorted(TUBE_QUADS))
     ap.add_argument("--formats", default="stl,ply,obj")

@@ -17,7 +17,7 @@ from hullprod_wb.core.errors import InputError
 from hullprod_wb.examples.analytic_meshes import cylinder_mesh, half_wigley_mesh, icosphere_mesh, torus_mesh
 from hullprod_wb.mesh import loading, memory, readers
 from hullprod_wb.mesh.backend import assess_mesh
-from hullprod_wb.mesh.face_geometry import face_measures, normal_angles, unit_normals
+from hullprod_wb.mesh.face_geometry import normal_angles, unit_normals
 from hullprod_wb.mesh.quality import mesh_quality, summary
 from hullprod_wb.mesh.topology import edge_table
 

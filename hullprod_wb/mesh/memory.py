@@ -2,9 +2,10 @@
 is read, and the refusal of files that would not fit.
 
 The estimate is linear in the counts the header gives (readers.header_counts):
-peak = BYTES_PER_VERTEX n + BYTES_PER_FACE m + the file's size (for the formats read whole)
-+ a fixed BASE for the interpreter and its libraries. The coefficients are the measured peak
-resident memory of the whole command (docs/benchmarks.md) with a margin.
+peak = BYTES_PER_VERTEX n + BYTES_PER_FACE m + FILE_COPIES times the file's size (what the
+reader holds while it parses) + a fixed BASE for the interpreter and its libraries. The
+coefficients are the measured peak resident memory of the whole command
+(docs/benchmarks.md) with a margin of about 40 %.
 """
 import os
 
@@ -16,8 +17,9 @@ BYTES_PER_VERTEX = 200
 BYTES_PER_FACE = 300
 #: Interpreter, numpy, scipy: bytes.
 BASE = 150 * 2 ** 20
-#: Formats whose file is held in memory whole while it is parsed.
-READ_WHOLE = ("obj",)
+#: Copies of the file the reader holds while it parses: the records (STL, PLY), the
+#: text and its keyword-free copy (OBJ).
+FILE_COPIES = {"stl": 1, "ply": 1, "obj": 2}
 #: Environment variable overriding the memory taken as available (bytes), e.g. for a
 #: process limited below the machine's memory.
 AVAILABLE_ENV = "HULLPROD_MEMORY_BYTES"
@@ -27,9 +29,7 @@ def estimated_bytes(path, fmt):
     """(bytes, vertices, faces): the estimated peak memory of assessing the file."""
     n, m = header_counts(path, fmt)
     size = os.path.getsize(path)
-    need = BASE + BYTES_PER_VERTEX * n + BYTES_PER_FACE * m
-    if fmt in READ_WHOLE or fmt == "stl":
-        need += 2 * size if fmt in READ_WHOLE else size
+    need = BASE + BYTES_PER_VERTEX * n + BYTES_PER_FACE * m + FILE_COPIES.get(fmt, 1) * size
     return need, n, m
 
 

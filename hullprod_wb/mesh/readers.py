@@ -280,8 +280,8 @@ def read_mesh_file(path, fmt):
 
 def header_counts(path, fmt):
     """(vertices, faces) a mesh file will give, from its header (binary STL, PLY) or its
-    size (ASCII STL: about 250 bytes a triangle; OBJ: about 30 bytes a vertex line and
-    a face line each, two faces a vertex), before it is read."""
+    size (ASCII STL: about 250 bytes a triangle; OBJ: about 90 bytes a vertex, its line and
+    two triangle lines), before it is read; a closed surface has two triangles a vertex."""
     size = os.path.getsize(path)
     if fmt == "stl":
         count = _binary_stl_count(path, size)
