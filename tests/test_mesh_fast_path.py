@@ -17,7 +17,7 @@ from hullprod_wb.core.errors import InputError
 from hullprod_wb.examples.analytic_meshes import cylinder_mesh, half_wigley_mesh, icosphere_mesh, torus_mesh
 from hullprod_wb.mesh import loading, memory, readers
 from hullprod_wb.mesh.backend import assess_mesh
-from hullprod_wb.mesh.face_geometry import normal_angles, unit_normals
+from hullprod_wb.mesh.face_geometry import edge_lengths, normal_angles, unit_normals
 from hullprod_wb.mesh.quality import mesh_quality, summary
 from hullprod_wb.mesh.topology import edge_table
 
@@ -158,6 +158,8 @@ def test_preparation_against_the_reference(name):
     for fast, slow in ((pm.measures.area, area), (pm.measures.quality, q), (pm.measures.min_angle, amin),
                        (pm.measures.max_angle, amax)):
         assert np.array_equal(fast, slow, equal_nan=True)
+    lengths = edge_lengths(pm.vertices, pm.table.edges)
+    assert np.array_equal(lengths, np.linalg.norm(pm.vertices[E2[:, 1]] - pm.vertices[E2[:, 0]], axis=1))
     nv = normal_angles(unit_normals(pm.vertices, pm.faces), pm.table.pairs)
     assert np.array_equal(nv, ref.normal_angles(pm.vertices, pm.faces, pairs2))
     # the quality record from the shared topology is the one recomputed from scratch

@@ -124,3 +124,15 @@ def normal_angles(N, pairs):
         out[sl] = np.degrees(np.arctan2(np.sqrt(_norm2(c)), _dot(a, b)))
     _each_block(block, len(pairs))
     return out
+
+
+def edge_lengths(V, edges):
+    """(e,) lengths |V[b] - V[a]| of the edges (e, 2), over blocks (no (e, 3) temporaries)."""
+    Vt = np.ascontiguousarray(np.asarray(V, dtype=float).T)
+    out = np.empty(len(edges))
+
+    def block(sl):
+        d = np.take(Vt, edges[sl, 1], axis=1) - np.take(Vt, edges[sl, 0], axis=1)
+        out[sl] = np.sqrt(_norm2(d))
+    _each_block(block, len(edges))
+    return out

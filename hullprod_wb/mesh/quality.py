@@ -32,7 +32,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .curvature import check_arrays, default_threads
-from .face_geometry import face_measures, normal_angles, unit_normals
+from .face_geometry import edge_lengths, face_measures, normal_angles, unit_normals
 from .topology import edge_table
 
 #: Percentiles of every distribution summary.
@@ -134,7 +134,7 @@ def mesh_quality(mesh):
     be = table.edges[table.count == 1]
     bnd, nmv = table.vertex_flags(n)
     n_nme = int(np.count_nonzero(table.count > 2))
-    lengths = np.linalg.norm(V[table.edges[:, 1]] - V[table.edges[:, 0]], axis=1)
+    lengths = edge_lengths(V, table.edges)
     valence = np.bincount(table.edges.ravel(), minlength=n)
     interior = ~bnd & ~nmv & (valence > 0)
     irregular = interior & ((valence < 4) | (valence > 8))
