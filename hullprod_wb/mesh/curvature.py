@@ -336,7 +336,10 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     blocks = _blocks(m)
 
     # 1. Max (1999) vertex normals and the face areas.
-    cn = np.empty((3, 3, m))                  # corner slot, coordinate, face
+    # one buffer for the corner normals and then the corner tensors: its pages are
+    # faulted in once
+    buffer = np.empty(12 * m)
+    cn = buffer[:9 * m].reshape(3, 3, m)      # corner slot, coordinate, face
     area = np.empty(m)
     run_blocks(lambda sl: _normal_block(Vt, fc, cn, area, sl), blocks, threads)
     nv = np.stack(_vertex_sums(fc, [[cn[j][c] for j in range(3)] for c in range(3)], n, threads))
@@ -348,10 +351,10 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     frames = np.concatenate([nv, uf])         # (6, n): normal, u
 
     # 2-3. Face tensors carried to the corners, accumulated with the corner areas.
-    acc = np.empty((4, 3, m))
+    acc = buffer.reshape(4, 3, m)
     run_blocks(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
     kmean, kx, ky, wsum = _vertex_sums(fc, acc, n, threads)
-    del acc, frames
+    del acc, frames, buffer
 
     # 4. Eigen-decomposition of the vertex tensors [[mean + X, Y], [Y, mean - X]].
     usable = has_normal & (wsum > 0)
