@@ -1,140 +1,178 @@
-"""Benchmark of the mesh backend's hot path: curvature + signature on a generated mesh of
-about 1,000,000 vertices (a closed R = 3, r = 1 torus by default), with I/O timed apart.
+"""Benchmark of the mesh path at scan scale: the whole command `./hullprod analyze FILE
+--json --quiet --lref 8` on generated closed tori (R = 3, r = 1, random diagonals) of about
+0.1M, 1M and 4M vertices, written as binary STL, binary PLY and OBJ.
 
-    /usr/bin/python3 bench/mesh_curvature.py [--n 577] [--repeat 3] [--threads N]
-        [--mesh torus|wigley] [--io] [--analyze [FILE]]
+    /usr/bin/python3 bench/mesh_curvature.py [--sizes 0.1,1,4] [--formats stl,ply,obj]
+        [--repeat 5] [--reference] [--venv DIR] [--keep DIR]
 
-Prints wall and CPU seconds (best and median of the repeats), the tracemalloc peak of one
-curvature + signature pass and the process's peak resident memory. --io writes the mesh
-as binary STL to a temporary folder and times reading it back (welding and preparation
-included). --analyze times the whole command line `./hullprod analyze FILE` (default
-../shared/hulls/mesh/wigley_full.stl) and assess_mesh on the same file. Prints figures
-only; asserts nothing.
+For every file: the median wall time of --repeat runs with the smallest and largest (the
+noise of a shared machine), the median of each phase of the JSON `timings` (load, quality,
+curvature, signature) and the peak resident memory of the command (its own rusage). With
+several sizes, the ratio of the median times 4M / 1M of each format, measured in this
+same run (linear cost: 4x the vertices, about 4x the time). With --reference, the paper's
+reference package (hullprod 1.0.1 from PyPI, in a throwaway virtual environment, a fresh
+result cache each run) runs the 1M files of the binary formats once each, between our
+runs, and the time ratio is printed. The meshes are generated into a temporary folder
+(removed at the end unless --keep). Prints figures only; asserts nothing.
 """
 import argparse
+import json
 import os
-import resource
+import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
-import tracemalloc
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-import numpy as np  # noqa: E402
-
-from hullprod_wb.core.integrals import integrals_from_samples  # noqa: E402
-from hullprod_wb.core.reference_length import resolve_reference_length  # noqa: E402
-from hullprod_wb.core.signature import signature_values  # noqa: E402
-from hullprod_wb.core.thresholds import Thresholds  # noqa: E402
-from hullprod_wb.examples.analytic_meshes import half_wigley_mesh, torus_mesh  # noqa: E402
-from hullprod_wb.mesh.curvature import default_threads, vertex_curvature  # noqa: E402
+#: Quads around the tube per size (millions of vertices): n x 3n grid, 3 n^2 vertices.
+TUBE_QUADS = {0.1: 183, 1.0: 577, 4.0: 1155}
+LREF = 8.0
+PHASES = ("load_s", "quality_s", "curvature_s", "signature_s")
 
 
-def curvature_and_signature(V, F, lref, threads):
-    """The timed work: per-vertex curvature, valid domain, integrals and signature."""
-    c = vertex_curvature(V, F, threads=threads)
-    valid = ~c.boundary & ~c.nonmanifold & np.isfinite(c.K) & np.isfinite(c.H)
-    rl = resolve_reference_length(V, c.vertex_area, explicit=lref)
-    th = Thresholds(rl.value)
-    ig = integrals_from_samples(c.K, c.H, c.vertex_area, valid, th.tau_H, th.tau_K)
-    return signature_values(ig, rl.value)
+def write_meshes(folder, size, formats):
+    """Paths {format: file}, vertices, faces of the torus of about size million vertices,
+    written by a child process (so that this process stays small: a child inherits the
+    peak resident memory of the process it is started from in its own rusage)."""
+    out = subprocess.run([sys.executable, os.path.abspath(__file__), "--write", folder, str(size),
+                          ",".join(formats)], capture_output=True, text=True, check=True).stdout
+    doc = json.loads(out)
+    return doc["paths"], doc["vertices"], doc["faces"]
 
 
-def timed(fn, repeat):
-    walls, cpus, out = [], [], None
-    for _ in range(repeat):
-        t, c = time.perf_counter(), time.process_time()
-        out = fn()
-        walls.append(time.perf_counter() - t)
-        cpus.append(time.process_time() - c)
-    return walls, cpus, out
+def _write(folder, size, formats):
+    """The --write child: the torus files, and a JSON line of their paths and counts."""
+    import trimesh
+    from hullprod_wb.examples.analytic_meshes import torus_mesh
+    V, F = torus_mesh(TUBE_QUADS[size], pattern="random", seed=1)
+    mesh = trimesh.Trimesh(V, F, process=False)
+    paths = {}
+    for fmt in formats:
+        paths[fmt] = os.path.join(folder, "torus_%gM.%s" % (size, fmt))
+        mesh.export(paths[fmt])
+    print(json.dumps({"paths": paths, "vertices": len(V), "faces": len(F)}))
 
 
-def fmt(walls, cpus):
-    return ("wall best %.3f s, median %.3f s; CPU best %.3f s, median %.3f s"
-            % (min(walls), statistics.median(walls), min(cpus), statistics.median(cpus)))
+def timed_child(cmd, env=None):
+    """(stdout, stderr, exit status, wall seconds, peak resident MB) of one command; the
+    memory is the child's own (os.wait4), not the largest child's so far."""
+    t = time.perf_counter()
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
+    out, err = p.stdout.read(), p.stderr.read()
+    _, status, usage = os.wait4(p.pid, 0)
+    wall = time.perf_counter() - t
+    p.stdout.close()
+    p.stderr.close()
+    p.returncode = os.waitstatus_to_exitcode(status)
+    return out, err.decode(errors="replace"), p.returncode, wall, usage.ru_maxrss / 1024.0
+
+
+def run_ours(path):
+    """One run of our command: dict(wall, rss, timings, I_D) or dict(wall, error)."""
+    cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet", "--lref", str(LREF)]
+    out, err, code, wall, rss = timed_child(cmd)
+    if code != 0:
+        return {"wall": wall, "error": err.strip()[-300:]}
+    doc = json.loads(out)
+    return {"wall": wall, "rss": rss, "timings": doc["timings"], "I_D": doc["signature"]["I_D"]}
+
+
+def ensure_reference_venv(venv):
+    exe = os.path.join(venv, "bin", "hullprod")
+    if not os.path.exists(exe):
+        subprocess.run([sys.executable, "-m", "venv", venv], check=True)
+        subprocess.run([os.path.join(venv, "bin", "pip"), "install", "-q", "hullprod==1.0.1"], check=True)
+    return exe
+
+
+def run_reference(exe, path):
+    """One run of the reference package with a fresh result cache: dict(wall, rss[, error])."""
+    out = tempfile.mkdtemp(prefix="hullprod-ref-")
+    cache = tempfile.mkdtemp(prefix="hullprod-ref-cache-")
+    cmd = [exe, path, "--out", out, "--overwrite", "--no-plots", "--quiet", "--lref", str(LREF)]
+    _, err, code, wall, rss = timed_child(cmd, env=dict(os.environ, HULLPROD_CACHE_DIR=cache))
+    shutil.rmtree(cache, ignore_errors=True)
+    shutil.rmtree(out, ignore_errors=True)
+    res = {"wall": wall, "rss": rss}
+    if code != 0:
+        res["error"] = err.strip()[-300:]
+    return res
+
+
+def summarise(runs):
+    walls = [r["wall"] for r in runs]
+    row = {"median": statistics.median(walls), "min": min(walls), "max": max(walls),
+           "rss": max(r["rss"] for r in runs)}
+    for ph in PHASES:
+        row[ph] = statistics.median(r["timings"][ph] for r in runs)
+    row["I_D"] = runs[0]["I_D"]
+    return row
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--write":
+        _write(argv[1], float(argv[2]), argv[3].split(","))
+        return 0
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--mesh", choices=("torus", "wigley"), default="torus")
-    ap.add_argument("--n", type=int, default=577, help="torus: quads around the tube (n x 3n grid); "
-                    "wigley: quads along the draft (4n x n grid)")
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--threads", type=int, default=None, help="block-pass threads (default %d)" % default_threads())
-    ap.add_argument("--io", action="store_true", help="also time writing and reading a binary STL")
-    ap.add_argument("--analyze", nargs="?", const=os.path.join(ROOT, "..", "shared", "hulls", "mesh", "wigley_full.stl"),
-                    default=None, metavar="FILE", help="also time ./hullprod analyze FILE")
+    ap.add_argument("--sizes", default="0.1,1,4", help="millions of vertices, of %s" % sorted(TUBE_QUADS))
+    ap.add_argument("--formats", default="stl,ply,obj")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--reference", action="store_true", help="also run hullprod 1.0.1 on the 1M binary files")
+    ap.add_argument("--venv", default=os.path.join(tempfile.gettempdir(), "hullprod-ref-venv"))
+    ap.add_argument("--keep", default=None, metavar="DIR", help="write the meshes here and keep them")
     args = ap.parse_args(argv)
-    threads = args.threads or default_threads()
-
-    t = time.perf_counter()
-    if args.mesh == "torus":
-        V, F = torus_mesh(args.n, pattern="random", seed=1)
-        lref, ref = 8.0, 128.0 / (3.0 * np.pi)
-    else:
-        V, F = half_wigley_mesh(4 * args.n, args.n, pattern="random", seed=1)
-        lref, ref = 1.0, 4.30990339
-    gen = time.perf_counter() - t
-    print("mesh: %s, %d vertices, %d triangles (generated in %.2f s)" % (args.mesh, len(V), len(F), gen))
-    print("cores: %d, block-pass threads: %d, load average at start: %.2f (wall times grow when "
-          "other processes share the cores; CPU times much less)" % (os.cpu_count() or 1, threads, os.getloadavg()[0]))
-
-    walls, cpus, sig = timed(lambda: curvature_and_signature(V, F, lref, threads), args.repeat)
-    print("curvature + signature (%d runs): %s" % (args.repeat, fmt(walls, cpus)))
-    print("  I_D = %.6f (reference %.6f, rel. error %.2e), I_D+ = %.6f, I_D- = %.6f"
-          % (sig["I_D"], ref, sig["I_D"] / ref - 1, sig["I_D_plus"], sig["I_D_minus"]))
-    w1, c1, _ = timed(lambda: vertex_curvature(V, F, threads=threads), args.repeat)
-    print("  of which vertex_curvature: %s" % fmt(w1, c1))
-
-    tracemalloc.start()
-    curvature_and_signature(V, F, lref, threads)
-    _, peak = tracemalloc.get_traced_memory()
-    tracemalloc.stop()
-    mesh_bytes = V.nbytes + F.nbytes
-    print("peak memory of one pass (tracemalloc): %.0f MB (mesh arrays themselves: %.0f MB)"
-          % (peak / 2 ** 20, mesh_bytes / 2 ** 20))
-    print("process peak resident memory so far (ru_maxrss): %.0f MB"
-          % (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0))
-
-    if args.io:
-        import trimesh
-        from hullprod_wb.mesh.loading import load_mesh
-        with tempfile.TemporaryDirectory() as tmp:
-            path = os.path.join(tmp, "bench.stl")
-            t = time.perf_counter()
-            trimesh.Trimesh(V, F, process=False).export(path, file_type="stl")
-            tw = time.perf_counter() - t
-            t = time.perf_counter()
-            m = load_mesh(path)
-            tr = time.perf_counter() - t
-            print("I/O: wrote %.0f MB binary STL in %.2f s; load_mesh (read, weld, checks, orientation) %.2f s, "
-                  "%d vertices" % (os.path.getsize(path) / 2 ** 20, tw, tr, len(m.vertices)))
-        print("process peak resident memory after I/O (ru_maxrss): %.0f MB"
-              % (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0))
-
-    if args.analyze:
-        path = os.path.abspath(args.analyze)
-        if not os.path.isfile(path):
-            print("analyze: %s not present, skipped" % path)
-            return 0
-        launcher = os.path.join(ROOT, "hullprod")
-        if os.path.isfile(launcher):
-            runs = []
-            for _ in range(args.repeat):
-                t = time.perf_counter()
-                proc = subprocess.run([launcher, "analyze", path, "--quiet"], capture_output=True, text=True)
-                runs.append(time.perf_counter() - t)
-            print("./hullprod analyze %s: exit %d, wall best %.2f s, median %.2f s (interpreter start and "
-                  "imports included)" % (os.path.relpath(path, ROOT), proc.returncode, min(runs), statistics.median(runs)))
-        from hullprod_wb.mesh.backend import assess_mesh
-        r = assess_mesh(path)
-        print("assess_mesh in-process: " + ", ".join("%s %.3f s" % (k, v) for k, v in r.timings.items()))
-        print("  I_D = %s (%s)" % (r.validity["I_D"].value, r.validity["I_D"].status.value))
+    sizes = [float(s) for s in args.sizes.split(",")]
+    formats = args.formats.split(",")
+    exe = ensure_reference_venv(args.venv) if args.reference else None
+    subprocess.run([sys.executable, "-m", "compileall", "-q", "-f", os.path.join(ROOT, "hullprod_wb")], check=True)
+    folder = args.keep or tempfile.mkdtemp(prefix="hullprod-mesh-bench-")
+    os.makedirs(folder, exist_ok=True)
+    print("cores: %d, load average at start: %.2f (wall times grow when other processes share the cores)"
+          % (os.cpu_count() or 1, os.getloadavg()[0]))
+    print("%-18s %9s %8s %8s %20s %7s %7s %7s %7s %8s" % (
+        "file", "vertices", "faces", "median", "min..max [s]", "load", "quality", "curv.", "sign.", "peak MB"))
+    results = {}
+    try:
+        for size in sizes:
+            paths, nv, nf = write_meshes(folder, size, formats)
+            for fmt in formats:
+                runs, ref = [], None
+                for i in range(max(1, args.repeat)):
+                    runs.append(run_ours(paths[fmt]))
+                    if "error" in runs[-1]:
+                        print("%s: %s" % (os.path.basename(paths[fmt]), runs[-1]["error"]))
+                        break
+                    if exe and size == 1.0 and fmt in ("stl", "ply") and i == 0:
+                        ref = run_reference(exe, paths[fmt])
+                runs = [r for r in runs if "error" not in r]
+                if not runs:
+                    continue
+                row = summarise(runs)
+                results[(size, fmt)] = row
+                print("%-18s %9d %8d %8.2f %9.2f .. %7.2f %7.2f %7.2f %7.2f %7.2f %8.0f" % (
+                    os.path.basename(paths[fmt]), nv, nf, row["median"], row["min"], row["max"],
+                    row["load_s"], row["quality_s"], row["curvature_s"], row["signature_s"], row["rss"]))
+                if ref is not None:
+                    if "error" in ref:
+                        print("%-18s reference hullprod 1.0.1: error %s" % ("", ref["error"]))
+                    else:
+                        print("%-18s reference hullprod 1.0.1: %.1f s, peak %.0f MB: %.1fx our median" % (
+                            "", ref["wall"], ref["rss"], ref["wall"] / row["median"]))
+                sys.stdout.flush()
+            for fmt in formats:
+                os.remove(paths[fmt])
+    finally:
+        if not args.keep:
+            shutil.rmtree(folder, ignore_errors=True)
+    for fmt in formats:
+        if (1.0, fmt) in results and (4.0, fmt) in results:
+            print("linearity %s: 4M / 1M median time %.2f" % (fmt, results[(4.0, fmt)]["median"] / results[(1.0, fmt)]["median"]))
+    print("load average at the end: %.2f" % os.getloadavg()[0])
     return 0
 
 

@@ -29,14 +29,15 @@ def dist_version(name):
         return None
 
 
-def software_versions():
-    """Versions of this package and of what it computes with (None where absent)."""
+def software_versions(with_freecad=True):
+    """Versions of this package and of what it computes with (None where absent; FreeCAD
+    and OCC None without with_freecad unless FreeCAD is loaded: a mesh does not use it)."""
     import numpy
     from .. import __version__
     from ..freecad_env import versions
     out = {"package": "hullprod_wb", "version": __version__, "python": platform.python_version(),
            "numpy": numpy.__version__, "scipy": dist_version("scipy"), "trimesh": dist_version("trimesh")}
-    out.update(versions())
+    out.update(versions(load=with_freecad))
     return out
 
 
@@ -76,7 +77,7 @@ class Assessment:
     def to_dict(self):
         doc = {
             "schema_version": SCHEMA_VERSION,
-            "software": software_versions(),
+            "software": software_versions(self.input.get("representation") != "mesh"),
             "input": self.input,
             "reference_length": self.reference_length.to_dict(),
             "thresholds": self.thresholds.to_dict(),

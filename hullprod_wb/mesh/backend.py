@@ -40,8 +40,9 @@ from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..core.validity import MetricValidity, Status
 from .curvature import vertex_curvature
-from .loading import check_mesh_path, file_record, load_mesh, mesh_from_arrays, mesh_from_freecad, \
-    mesh_from_trimesh
+from .loading import check_mesh_path, file_record, load_prepared, prepared_from_arrays, \
+    prepared_from_freecad, prepared_from_trimesh
+from .memory import check_memory
 from .quality import mesh_quality
 
 #: Share of the represented area outside the valid domain above which values are MESH-SENSITIVE.
@@ -52,23 +53,25 @@ CURVATURE_METHOD = ("Rusinkiewicz (2004) per-vertex curvature tensor: Max (1999)
                     "corner-area averaging (Meyer et al. 2003)")
 
 
-def open_mesh(source):
-    """(trimesh.Trimesh, input dict) from a path, trimesh, (vertices, faces) or FreeCAD mesh."""
+def open_mesh(source, progress=None):
+    """(loading.PreparedMesh, input dict) from a path, trimesh, (vertices, faces) or FreeCAD
+    mesh. progress(fraction of the loading, message)."""
     if isinstance(source, (str, os.PathLike)):
         path, fmt = check_mesh_path(source)
+        check_memory(path, fmt)
         info = {"path": path, "format": fmt, "representation": "mesh"}
         info.update(file_record(path))
-        return load_mesh(path), info
+        return load_prepared(path, progress), info
     if type(source).__module__.startswith("trimesh"):
         if not hasattr(source, "faces"):
             raise InputError("a trimesh %s is not a triangle mesh" % type(source).__name__)
-        return mesh_from_trimesh(source), {"path": None, "sha256": None, "format": "trimesh",
+        return prepared_from_trimesh(source), {"path": None, "sha256": None, "format": "trimesh",
                                            "representation": "mesh"}
     if isinstance(source, (tuple, list)) and len(source) == 2:
-        return mesh_from_arrays(*source), {"path": None, "sha256": None, "format": "arrays",
+        return prepared_from_arrays(*source), {"path": None, "sha256": None, "format": "arrays",
                                            "representation": "mesh"}
     if hasattr(source, "Topology") or hasattr(source, "Mesh"):  # Mesh.Mesh or a Mesh::Feature
-        mesh = mesh_from_freecad(source)
+        mesh = prepared_from_freecad(source)
         return mesh, {"path": None, "sha256": None, "format": "FreeCAD mesh", "representation": "mesh",
                       "name": getattr(source, "Label", None)}
     raise InputError("cannot assess %s as a triangle mesh: give a .stl/.obj/.ply path, a trimesh, "
@@ -134,22 +137,23 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
     timings = {}
     t0 = time.perf_counter()
     progress(0.0, "reading mesh")
-    mesh, info = open_mesh(mesh_or_path)
+    mesh, info = open_mesh(mesh_or_path, lambda f, msg: progress(0.2 * f, msg))
     if input_info:
         info.update(input_info)
-    prep = dict(mesh.metadata.get("hullprod", {}))
-    V = np.asarray(mesh.vertices, dtype=float)
-    F = np.asarray(mesh.faces, dtype=np.int64)
+    prep = dict(mesh.info)
+    V, F = mesh.vertices, mesh.faces
     t1 = time.perf_counter()
     timings["load_s"] = t1 - t0
 
     progress(0.2, "mesh quality")
     quality = mesh_quality(mesh)
+    flags = mesh.table.vertex_flags(len(V))
+    del mesh              # the edge table and triangle measures: not needed any more
     t2 = time.perf_counter()
     timings["quality_s"] = t2 - t1
 
     progress(0.4, "curvature of %d vertices" % len(V))
-    curv = vertex_curvature(V, F)
+    curv = vertex_curvature(V, F, flags=flags)
     t3 = time.perf_counter()
     timings["curvature_s"] = t3 - t2
 

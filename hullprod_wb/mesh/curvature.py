@@ -103,9 +103,20 @@ def _cross(a, b):
     return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
-def _bincount3(index, weights, n):
-    """Per-vertex sums of (3, m) weights: (3, n) float."""
-    return np.stack([np.bincount(index, weights=w, minlength=n) for w in weights]).astype(float, copy=False)
+def _vertex_sums(index, weights, n, threads):
+    """Per-vertex sums over the three corner slots: out[k] = sum over j of
+    bincount(index[j], weights[k][j]) for each weight row k ((3, m) index rows, weights
+    (k, 3, m)); the bincounts run on threads, the sums in the slot order 0, 1, 2."""
+    jobs = [(k, j) for k in range(len(weights)) for j in range(3)]
+
+    def count(kj):
+        return np.bincount(index[kj[1]], weights=weights[kj[0]][kj[1]], minlength=n)
+    if threads > 1:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            parts = list(pool.map(count, jobs))
+    else:
+        parts = [count(kj) for kj in jobs]
+    return [sum(parts[3 * k + j] for j in range(3)).astype(float, copy=False) for k in range(len(weights))]
 
 
 def barycentric_vertex_areas(vertices, faces):
@@ -181,7 +192,7 @@ def _blocks(m, size=None):
     return [slice(a, min(a + size, m)) for a in range(0, m, size)]
 
 
-def _run(fn, blocks, threads):
+def run_blocks(fn, blocks, threads):
     """Apply fn to every block; blocks write disjoint slices, so threads may share them
     (numpy releases the GIL inside its array loops)."""
     if threads > 1 and len(blocks) > 1:
@@ -309,12 +320,13 @@ def _tensor_block(Vt, fc, frames, acc, sl):
         acc[3, j, sl] = w
 
 
-def vertex_curvature(vertices, faces, threads=None):
+def vertex_curvature(vertices, faces, threads=None, flags=None):
     """Rusinkiewicz (2004) curvature at every vertex (see module docstring).
 
     vertices: (n, 3) float; faces: (m, 3) int, oriented. Degenerate faces (see
-    DEGENERATE_RTOL) are ignored. threads: worker threads for the block passes (default :func:`default_threads`).
-    Returns a MeshCurvature.
+    DEGENERATE_RTOL) are ignored. threads: worker threads for the block passes (default
+    :func:`default_threads`). flags: (boundary, nonmanifold) (n,) bool vertex flags when
+    known already (topology.EdgeTable.vertex_flags), else found here. Returns a MeshCurvature.
     """
     V, F = check_arrays(vertices, faces)
     n, m = len(V), len(F)
@@ -324,10 +336,13 @@ def vertex_curvature(vertices, faces, threads=None):
     blocks = _blocks(m)
 
     # 1. Max (1999) vertex normals and the face areas.
-    cn = np.empty((3, 3, m))                  # corner slot, coordinate, face
+    # one buffer for the corner normals and then the corner tensors: its pages are
+    # faulted in once
+    buffer = np.empty(12 * m)
+    cn = buffer[:9 * m].reshape(3, 3, m)      # corner slot, coordinate, face
     area = np.empty(m)
-    _run(lambda sl: _normal_block(Vt, fc, cn, area, sl), blocks, threads)
-    nv = sum(_bincount3(fc[j], cn[j], n) for j in range(3))
+    run_blocks(lambda sl: _normal_block(Vt, fc, cn, area, sl), blocks, threads)
+    nv = np.stack(_vertex_sums(fc, [[cn[j][c] for j in range(3)] for c in range(3)], n, threads))
     del cn
     nlen = np.sqrt(_dot(nv, nv))
     has_normal = nlen > 0
@@ -336,11 +351,10 @@ def vertex_curvature(vertices, faces, threads=None):
     frames = np.concatenate([nv, uf])         # (6, n): normal, u
 
     # 2-3. Face tensors carried to the corners, accumulated with the corner areas.
-    acc = np.empty((4, 3, m))
-    _run(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
-    kmean, kx, ky, wsum = (sum(np.bincount(fc[j], weights=acc[k, j], minlength=n) for j in range(3))
-                           .astype(float, copy=False) for k in range(4))
-    del acc, frames
+    acc = buffer.reshape(4, 3, m)
+    run_blocks(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
+    kmean, kx, ky, wsum = _vertex_sums(fc, acc, n, threads)
+    del acc, frames, buffer
 
     # 4. Eigen-decomposition of the vertex tensors [[mean + X, Y], [Y, mean - X]].
     usable = has_normal & (wsum > 0)
@@ -356,9 +370,8 @@ def vertex_curvature(vertices, faces, threads=None):
     d1 = ct * uf + st * vf
     d2 = ct * vf - st * uf
     nv[:, ~has_normal] = np.nan
-    boundary, nonmanifold = vertex_flags(F, n)
-    vertex_area = sum(np.bincount(fc[j], weights=area, minlength=n) for j in range(3)) / 3.0
-    vertex_area = vertex_area.astype(float, copy=False)
+    boundary, nonmanifold = vertex_flags(F, n) if flags is None else flags
+    vertex_area = _vertex_sums(fc, [[area] * 3], n, threads)[0] / 3.0
     return MeshCurvature(normals=nv.T, k1=k1, k2=k2, H=0.5 * (k1 + k2), K=k1 * k2, dir1=d1.T,
                          dir2=d2.T, boundary=boundary, nonmanifold=nonmanifold,
                          vertex_area=vertex_area, mixed_area=wsum)

@@ -14,16 +14,24 @@ Preparation never modifies the caller's object and applies no smoothing or remes
    part of each connected piece is kept) and closed pieces are turned outward (positive
    enclosed volume); the number of flipped triangles is recorded.
 
-The record of all this is ``mesh.metadata['hullprod']`` of the returned trimesh.Trimesh.
+Welding, the degenerate test and the topology each take one pass: the vertices are grouped
+by a hash of their coordinates and the sides by their edge keys with linear counting sorts
+(:mod:`.topology`), and the edge table, the triangle measures (:mod:`.face_geometry`) and
+the vertex flags found here are handed on to the quality record and the curvature. The
+record of all this is the PreparedMesh's info, ``mesh.metadata['hullprod']`` of the
+trimesh.Trimesh that :func:`load_mesh` returns.
 """
 import os
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.errors import InputError
 from ..core.inputs import MESH_FORMATS, sha256_file
-from .curvature import DEGENERATE_RTOL, check_arrays
-from .topology import edge_table, face_pairs
+from .curvature import check_arrays
+from .face_geometry import face_measures
+from .readers import read_mesh_file
+from .topology import edge_table, face_neighbours, group_pairs
 
 
 def _trimesh():
@@ -57,39 +65,41 @@ def load_mesh(path):
 
     Returns a trimesh.Trimesh whose metadata['hullprod'] records the preparation.
     """
+    return load_prepared(path).to_trimesh()
+
+
+def load_prepared(path, progress=None):
+    """Read and prepare a mesh file: a PreparedMesh (see :func:`prepare`)."""
     path, fmt = check_mesh_path(path)
-    trimesh = _trimesh()
-    try:
-        if fmt == "stl":  # the STL reader itself: no scene, cache or copy overhead
-            from trimesh.exchange.stl import load_stl
-            with open(path, "rb") as fh:
-                kw = load_stl(fh)
-            vertices, faces = kw["vertices"], kw["faces"]
-        else:
-            loaded = trimesh.load(path, file_type=fmt, force="mesh", process=False)
-            if not isinstance(loaded, trimesh.Trimesh):
-                raise InputError("mesh file %s holds no triangle mesh" % path)
-            vertices, faces = loaded.vertices, loaded.faces
-    except InputError:
-        raise
-    except Exception as exc:  # the readers raise many kinds of errors for unreadable files
-        raise InputError("cannot read mesh file %s as %s: %s" % (path, fmt.upper(), exc)) from None
+    progress = progress or (lambda fraction, message: None)
+    progress(0.0, "reading %s" % os.path.basename(path))
+    raw = read_mesh_file(path, fmt)
     source = {"kind": "file", "path": path, "format": fmt}
-    return prepare_mesh(vertices, faces, source)
+    return prepare(raw.vertices, raw.faces, source, progress)
 
 
 def mesh_from_arrays(vertices, faces, name="arrays"):
     """Prepare a mesh from (n, 3) float vertices and (m, 3) int faces (copied, not modified)."""
+    return prepared_from_arrays(vertices, faces, name).to_trimesh()
+
+
+def prepared_from_arrays(vertices, faces, name="arrays"):
+    """mesh_from_arrays as a PreparedMesh."""
     V, F = check_arrays(np.array(vertices, dtype=float, copy=True), np.array(faces, copy=True))
-    return prepare_mesh(V, F, {"kind": "arrays", "name": name})
+    return prepare(V, F, {"kind": "arrays", "name": name})
 
 
 def mesh_from_trimesh(mesh):
     """Prepare a copy of a trimesh.Trimesh (the caller's object is not modified)."""
+    return prepared_from_trimesh(mesh).to_trimesh()
+
+
+def prepared_from_trimesh(mesh):
+    """mesh_from_trimesh as a PreparedMesh."""
     source = {"kind": "trimesh"}
     if getattr(mesh, "metadata", None) and "file_name" in mesh.metadata:
         source["name"] = mesh.metadata["file_name"]
-    return prepare_mesh(np.array(mesh.vertices, dtype=float), np.array(mesh.faces), source)
+    return prepare(np.array(mesh.vertices, dtype=float), np.array(mesh.faces), source)
 
 
 def mesh_from_freecad(obj):
@@ -97,6 +107,11 @@ def mesh_from_freecad(obj):
 
     The points come from Mesh.Topology, which has the object's placement applied.
     """
+    return prepared_from_freecad(obj).to_trimesh()
+
+
+def prepared_from_freecad(obj):
+    """mesh_from_freecad as a PreparedMesh."""
     from ..freecad_env import import_freecad
     import_freecad()
     import Mesh
@@ -113,9 +128,11 @@ def mesh_from_freecad(obj):
         raise InputError("the FreeCAD mesh has no facets")
     V = np.array(points, dtype=float).reshape(-1, 3)
     F = np.array(facets, dtype=np.int64).reshape(-1, 3)
-    return prepare_mesh(V, F, source)
+    return prepare(V, F, source)
 
 
+#: log2 of the mean number of rows in a bucket of unique_rows' counting sort.
+HASH_BUCKET_BITS = 5
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
 _MIX2 = np.uint64(0x94D049BB133111EB)
 
@@ -130,55 +147,111 @@ def _mix(z):
     return z
 
 
-def unique_rows(B):
-    """Exact unique rows of a (k, c) array of 64-bit values.
-
-    Rows are hashed to one uint64 and sorted once; the grouping is then checked against
-    the rows themselves and, should two different rows share a hash, redone with numpy's
-    exact (slower) row sort. Returns (first (u,) index of each distinct row's first
-    occurrence, inverse (k,) group of every row), groups numbered by first occurrence.
-    """
-    B = np.ascontiguousarray(B).view(np.uint64)
+def _row_hashes(B):
+    """(k,) uint64 hash of the rows of a (k, c) array of 32- or 64-bit values."""
+    B = np.ascontiguousarray(B)
+    if B.dtype.itemsize == 4:
+        U = B.view(np.uint32)
+        cols = [U[:, j].astype(np.uint64) for j in range(U.shape[1])]
+        if len(cols) > 1:  # two 32-bit columns a word
+            cols = [cols[j] | (cols[j + 1] << np.uint64(32)) if j + 1 < len(cols) else cols[j]
+                    for j in range(0, len(cols), 2)]
+    else:
+        U = B.view(np.uint64)
+        cols = [U[:, j] for j in range(U.shape[1])]
     with np.errstate(over="ignore"):
-        h = _mix(B[:, 0].copy())
-        for col in range(1, B.shape[1]):
-            h ^= B[:, col]
+        h = _mix(cols[0].copy())
+        for c in cols[1:]:
+            h ^= c
             h = _mix(h)
-    order = np.argsort(h)
-    hs = h[order]
-    new = np.empty(len(hs), dtype=bool)
-    new[:1] = True
-    np.not_equal(hs[1:], hs[:-1], out=new[1:])
+    return h
+
+
+def unique_rows(B):
+    """Exact unique rows of a (k, c) array of 32- or 64-bit values.
+
+    Rows are hashed to one uint64 and grouped by the hash's leading bits with one counting
+    sort (topology.group_pairs: its top bits as row, the next 31 as column); the grouping
+    is then checked against the rows themselves and, should two different rows share those
+    bits, redone with numpy's exact (slower) row sort. Returns (first (u,) index of each
+    distinct row's first occurrence, increasing; inverse (k,) group of every row),
+    groups numbered by first occurrence.
+    """
+    B = np.ascontiguousarray(B)
+    k = len(B)
+    if k == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    h = _row_hashes(B)
+    # about 32 rows a bucket: the counting sort stays in cache, the sorts within buckets short
+    rb = max(1, int(k - 1).bit_length() - HASH_BUCKET_BITS)
+    rows = (h >> np.uint64(64 - rb)).astype(np.int32 if rb < 31 else np.int64)
+    cols = ((h >> np.uint64(64 - rb - 31)) & np.uint64(0x7FFFFFFF)).astype(np.int32)
+    del h
+    order, row, col = group_pairs(rows, cols, 1 << rb, 1 << 31)
+    del rows, cols
+    new = np.empty(k, dtype=bool)
+    new[0] = True
+    np.not_equal(col[1:], col[:-1], out=new[1:])
+    new[1:] |= row[1:] != row[:-1]
+    del row, col
     starts = np.flatnonzero(new)
-    first = np.minimum.reduceat(order, starts) if len(order) else order
-    inverse = np.empty(len(h), dtype=np.int64)
-    inverse[order] = np.cumsum(new) - 1
-    if not np.array_equal(B[first[inverse]], B):      # a hash collision: exact fallback
-        rows = B.view(np.dtype((np.void, B.dtype.itemsize * B.shape[1]))).ravel()
-        _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
-        inverse = inverse.ravel()
-    rank = np.empty(len(first), dtype=np.int64)
-    by_first = np.argsort(first, kind="stable")
-    rank[by_first] = np.arange(len(first))
-    return first[by_first], rank[inverse]
+    first = np.minimum.reduceat(order, starts)
+    gid = np.cumsum(new) - 1
+    del new, starts
+    mark = np.zeros(k, dtype=bool)
+    mark[first] = True
+    rank = np.cumsum(mark) - 1
+    inverse = np.empty(k, dtype=np.int64)
+    inverse[order] = rank[first][gid]
+    del gid, rank
+    first_sorted = np.flatnonzero(mark)
+    if not np.array_equal(B[first_sorted[inverse]], B):      # a hash collision: exact fallback
+        rows_v = B.view(np.dtype((np.void, B.dtype.itemsize * B.shape[1]))).ravel()
+        _, first, inv = np.unique(rows_v, return_index=True, return_inverse=True)
+        by_first = np.argsort(first, kind="stable")
+        rank = np.empty(len(first), dtype=np.int64)
+        rank[by_first] = np.arange(len(first))
+        return first[by_first], rank[inv.ravel()]
+    return first_sorted, inverse
 
 
-def weld_exact(V, F):
+def weld_exact(V, F=None):
     """Merge vertices with bit-identical coordinates (-0.0 equals 0.0), keeping the order of
-    first occurrence. Returns (vertices, faces, number merged)."""
-    Vc = np.ascontiguousarray(V, dtype=np.float64) + 0.0
+    first occurrence. F None: V is a triangle soup (triangle i = rows 3i..3i+2). Float32
+    vertices are compared as stored (their float64 values are the same points). Returns
+    (float64 vertices, faces, number merged)."""
+    Vc = np.asarray(V)
+    Vc = Vc + Vc.dtype.type(0.0) if Vc.dtype in (np.float32, np.float64) else Vc.astype(np.float64) + 0.0
     first, inverse = unique_rows(Vc)
-    return Vc[first], inverse[F], len(V) - len(first)
+    faces = inverse.reshape(-1, 3) if F is None else inverse[F]
+    return Vc[first].astype(np.float64, copy=False), faces, len(Vc) - len(first)
 
 
 def degenerate_faces(V, F):
     """(m,) bool: triangles with a repeated vertex or 2A <= DEGENERATE_RTOL * (longest edge)^2."""
-    P = V[F]
-    e = P[:, [1, 2, 0]] - P
-    l2 = np.einsum("ijk,ijk->ij", e, e)
-    dblA = np.linalg.norm(np.cross(e[:, 0], e[:, 1]), axis=1)
-    repeated = (F[:, 0] == F[:, 1]) | (F[:, 1] == F[:, 2]) | (F[:, 2] == F[:, 0])
-    return repeated | ~(dblA > DEGENERATE_RTOL * l2.max(axis=1))
+    return face_measures(V, F).degenerate
+
+
+def _face_components(m, pairs):
+    """(labels (m,), count): pieces of faces joined across the manifold edges pairs (p, 2),
+    numbered in the order of their lowest face."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    g = coo_matrix((np.ones(len(pairs), dtype=np.int8), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    count, labels = connected_components(g, directed=False)
+    return labels, int(count)
+
+
+def _signed_volumes(V, F):
+    """(m,) p0 . (p1 x p2) / 6 of every face (the tetrahedron with the origin)."""
+    Vt = np.ascontiguousarray(V.T)
+    out = np.empty(len(F))
+    step = 1 << 15
+    for a in range(0, len(F), step):
+        p0, p1, p2 = (np.take(Vt, F[a:a + step, j], axis=1) for j in range(3))
+        out[a:a + step] = (p0[0] * (p1[1] * p2[2] - p1[2] * p2[1]) + p0[1] * (p1[2] * p2[0] - p1[0] * p2[2])
+                           + p0[2] * (p1[0] * p2[1] - p1[1] * p2[0])) / 6.0
+    return out
 
 
 def orient_faces(V, F, table):
@@ -187,36 +260,46 @@ def orient_faces(V, F, table):
     Each triangle f gets two nodes, f (kept) and f + m (flipped); an edge whose two
     triangles agree joins f-g and f+m-g+m, one where they disagree joins f-(g+m) and
     (f+m)-g. In a piece that can be oriented the two nodes of a triangle fall into two
-    different components; the component holding more kept nodes wins. A piece with no
-    boundary and no non-manifold edge is then flipped as a whole if its signed volume
-    sum(p0 . (p1 x p2))/6 is negative. Returns (faces, info dict).
+    different components; the component holding more kept nodes wins. (Where every edge
+    agrees already, the components are the pieces of the face graph and nothing flips.)
+    A piece with no boundary and no non-manifold edge is then flipped as a whole if its
+    signed volume sum(p0 . (p1 x p2))/6 is negative. Returns (faces, info dict, (m,) bool
+    reversed faces); the table is updated for the reversed faces.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     m = len(F)
-    pairs, same = face_pairs(F, table)
-    a, b = pairs[:, 0], pairs[:, 1]
-    rows = np.concatenate([a, a + m])
-    cols = np.concatenate([np.where(same, b + m, b), np.where(same, b, b + m)])
-    graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(2 * m, 2 * m))
-    _, label = connected_components(graph, directed=False)
-    keep, alt = label[:m], label[m:]
-    nkeep = np.bincount(keep, minlength=label.max() + 1)
-    flip = (nkeep[alt] > nkeep[keep]) | ((nkeep[alt] == nkeep[keep]) & (alt < keep))
-    non_orientable = keep == alt
+    pairs, same = table.pairs, table.same_direction(F)
+    if not same.any():
+        piece, npieces = _face_components(m, pairs)
+        flip = np.zeros(m, dtype=bool)
+        non_orientable = flip
+    else:
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+        a, b = pairs[:, 0], pairs[:, 1]
+        rows = np.concatenate([a, a + m])
+        cols = np.concatenate([np.where(same, b + m, b), np.where(same, b, b + m)])
+        graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(2 * m, 2 * m))
+        _, label = connected_components(graph, directed=False)
+        keep, alt = label[:m], label[m:]
+        nkeep = np.bincount(keep, minlength=label.max() + 1)
+        flip = (nkeep[alt] > nkeep[keep]) | ((nkeep[alt] == nkeep[keep]) & (alt < keep))
+        non_orientable = keep == alt
+        # pieces: the unordered pair of double-cover components
+        piece = np.unique(np.minimum(keep, alt), return_inverse=True)[1]
+        npieces = int(piece.max()) + 1 if m else 0
     out = F.copy()
     out[flip] = out[flip][:, ::-1]
-    # pieces: the unordered pair of double-cover components
-    piece = np.unique(np.minimum(keep, alt), return_inverse=True)[1]
-    npieces = int(piece.max()) + 1 if m else 0
     open_edge = table.count[table.side_edge] != 2          # (m, 3)
     piece_open = np.bincount(piece, weights=open_edge.any(axis=1) | non_orientable, minlength=npieces) > 0
-    P = V[out]
-    vol = np.einsum("ij,ij->i", P[:, 0], np.cross(P[:, 1], P[:, 2])) / 6.0
-    piece_vol = np.bincount(piece, weights=vol, minlength=npieces)
+    del open_edge
+    piece_vol = np.bincount(piece, weights=_signed_volumes(V, out), minlength=npieces)
     invert_piece = ~piece_open & (piece_vol < 0)
     inv = invert_piece[piece]
     out[inv] = out[inv][:, ::-1]
+    reversed_faces = flip ^ inv
+    table.flip_faces(reversed_faces)
+    if not reversed_faces.any():
+        out = F          # unchanged: the same array, whose winding the table remembers
     info = {
         "winding_flipped_faces": int(np.count_nonzero(flip)),
         "inverted_closed_pieces": int(np.count_nonzero(invert_piece)),
@@ -225,8 +308,46 @@ def orient_faces(V, F, table):
         "pieces": npieces,
         "closed_pieces": int(np.count_nonzero(~piece_open)),
     }
-    info["orientation_changed"] = bool(np.any(flip ^ inv))
-    return out, info
+    info["orientation_changed"] = bool(np.any(reversed_faces))
+    return out, info, reversed_faces
+
+
+def duplicate_face_count(F, table):
+    """Triangles beyond the first on the same three vertices (m - distinct vertex sets).
+
+    Two triangles on the same vertices share all three edges. Where those edges are
+    manifold (used twice), each triangle is the other's neighbour across all three sides;
+    triangles on a non-manifold edge are compared by their sorted vertex triples.
+    """
+    nb = face_neighbours(table, len(F))
+    twin = (nb[:, 0] >= 0) & (nb[:, 0] == nb[:, 1]) & (nb[:, 1] == nb[:, 2])
+    count = int(np.count_nonzero(twin)) // 2
+    shared = (table.count[table.side_edge] > 2).any(axis=1)
+    if shared.any():
+        sub = np.sort(F[shared], axis=1)
+        count += len(sub) - len(unique_rows(sub)[0])
+    return count
+
+
+@dataclass
+class PreparedMesh:
+    """A mesh after preparation (module docstring) with what was derived on the way.
+
+    vertices (n, 3) float64; faces (m, 3) int64 (oriented); info: the preparation record;
+    table: topology.EdgeTable of the faces; measures: face_geometry.FaceMeasures.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    info: dict
+    table: object
+    measures: object
+
+    def to_trimesh(self):
+        """trimesh.Trimesh of the prepared mesh with metadata['hullprod'] = info."""
+        mesh = _trimesh().Trimesh(vertices=self.vertices, faces=self.faces, process=False, validate=False)
+        mesh.metadata["hullprod"] = self.info
+        return mesh
 
 
 def prepare_mesh(vertices, faces, source):
@@ -234,24 +355,39 @@ def prepare_mesh(vertices, faces, source):
 
     Works on copies. Returns a trimesh.Trimesh with metadata['hullprod'].
     """
-    trimesh = _trimesh()
+    return prepare(vertices, faces, source).to_trimesh()
+
+
+def prepare(vertices, faces, source, progress=None):
+    """prepare_mesh's work: a PreparedMesh. faces None: vertices are a triangle soup.
+    progress(fraction within the loading, message) is told of each step."""
+    progress = progress or (lambda fraction, message: None)
     where = source.get("path") or source.get("name") or source.get("label") or source.get("kind")
-    V, F = check_arrays_finite(vertices, faces, where)
-    info = {"source": dict(source), "input_vertices": int(len(V)), "input_faces": int(len(F))}
+    V, F = check_raw_arrays(vertices, faces, where)
+    n_in = len(V)
+    m_in = len(V) // 3 if F is None else len(F)
+    info = {"source": dict(source), "input_vertices": int(n_in), "input_faces": int(m_in)}
+    progress(0.2, "welding %d vertices" % n_in)
     V, F, merged = weld_exact(V, F)
     info["welded_vertices"] = int(merged)
-    bad = degenerate_faces(V, F)
+    progress(0.4, "triangle measures of %d faces" % len(F))
+    measures = face_measures(V, F)
+    bad = measures.degenerate
     info["degenerate_faces_removed"] = int(np.count_nonzero(bad))
     if bad.all():
         raise InputError("all %d triangles of %s are degenerate (zero area); nothing to assess"
                          % (len(F), where))
-    F = F[~bad]
+    if bad.any():
+        F = F[~bad]
+        measures = measures.take(~bad)
     used = np.zeros(len(V), dtype=bool)
     used[F.ravel()] = True
     info["unreferenced_vertices_removed"] = int(np.count_nonzero(~used))
     if not used.all():
         remap = np.cumsum(used) - 1
         V, F = V[used], remap[F]
+    del used
+    progress(0.6, "edges of %d faces" % len(F))
     table = edge_table(F, len(V))
     info["edges"] = int(len(table.count))
     info["boundary_edges"] = int(np.count_nonzero(table.count == 1))
@@ -259,14 +395,44 @@ def prepare_mesh(vertices, faces, source):
     if info["nonmanifold_edges"] == info["edges"]:
         raise InputError("every edge of %s is shared by more than two triangles; no usable surface"
                          % where)
-    info["duplicate_faces"] = int(len(F) - len(unique_rows(np.sort(F, axis=1))[0]))
-    F, orient = orient_faces(V, F, table)
+    info["duplicate_faces"] = duplicate_face_count(F, table)
+    progress(0.8, "orientation")
+    F, orient, reversed_faces = orient_faces(V, F, table)
+    if reversed_faces.any():  # the measures of the reversed faces as their new winding gives them
+        measures.put(reversed_faces, face_measures(V, F[reversed_faces]))
     info.update(orient)
     info["vertices"] = int(len(V))
     info["faces"] = int(len(F))
-    mesh = trimesh.Trimesh(vertices=V, faces=F, process=False, validate=False)
-    mesh.metadata["hullprod"] = info
-    return mesh
+    return PreparedMesh(V, F, info, table, measures)
+
+
+def check_raw_arrays(vertices, faces, where="the mesh"):
+    """check_arrays_finite for vertices kept in their stored float type (float32 or
+    float64, not converted) and faces None (a triangle soup: 3m vertex rows)."""
+    V = vertices
+    if not (isinstance(V, np.ndarray) and V.dtype in (np.float32, np.float64)):
+        V = check_arrays(vertices, np.zeros((0, 3), np.int64), where)[0]
+    if V.ndim != 2 or V.shape[1] != 3:
+        raise InputError("%s: vertices must be an (n, 3) array, got shape %s" % (where, V.shape))
+    if faces is None:
+        if len(V) % 3:
+            raise InputError("%s: a triangle soup needs 3 vertices a triangle, got %d" % (where, len(V)))
+        finite = np.isfinite(V).all(axis=1)
+        if not finite.all():
+            raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
+                             % (where, int(np.count_nonzero(~finite)), len(V)))
+        if len(V) == 0:
+            raise InputError("%s has no triangles (empty mesh)" % where)
+        return V, None
+    if V.dtype == np.float64:
+        V, F = check_arrays_finite(V, faces, where)
+        return V, F
+    finite = np.isfinite(V).all(axis=1)
+    if not finite.all():
+        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
+                         % (where, int(np.count_nonzero(~finite)), len(V)))
+    _, F = check_arrays_finite(np.zeros((len(V), 3)), faces, where)
+    return V, F
 
 
 def check_arrays_finite(vertices, faces, where="the mesh"):

@@ -27,10 +27,13 @@ reported here, and the share of area without valid curvature is judged by the ba
 Shape quality q = 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) is 1 for an equilateral triangle,
 0.87 for a right isosceles one and tends to 0 for slivers.
 """
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 
-from .curvature import check_arrays
-from .topology import edge_table, face_pairs
+from .curvature import check_arrays, default_threads
+from .face_geometry import edge_lengths, face_measures, normal_angles, unit_normals
+from .topology import edge_table
 
 #: Percentiles of every distribution summary.
 PERCENTILES = (1, 5, 50, 95, 99)
@@ -49,30 +52,37 @@ NORMAL_P99_CAUTION = 10.0
 
 
 def summary(x):
-    """min, p01, p05, median, p95, p99, max and mean of x (None entries when x is empty)."""
+    """min, p01, p05, median, p95, p99, max and mean of x (None entries when x is empty).
+
+    The percentiles (linear interpolation, np.percentile) come from one partition of a
+    copy of the finite values."""
     x = np.asarray(x, dtype=float)
     x = x[np.isfinite(x)]
     keys = ("min", "p01", "p05", "median", "p95", "p99", "max", "mean")
     if x.size == 0:
         return dict.fromkeys(keys)
-    p = np.percentile(x, PERCENTILES)
-    vals = (x.min(), *p, x.max(), x.mean())
+    lo, hi, mean = x.min(), x.max(), x.mean()
+    p = np.percentile(x, PERCENTILES, overwrite_input=True)
+    vals = (lo, *p, hi, mean)
     return {k: float(v) for k, v in zip(keys, vals)}
+
+
+def summaries(arrays):
+    """name -> summary(array) for a dict of arrays, on default_threads() threads."""
+    names = list(arrays)
+    threads = default_threads()
+    if threads > 1 and len(names) > 1:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            done = list(pool.map(lambda k: summary(arrays[k]), names))
+    else:
+        done = [summary(arrays[k]) for k in names]
+    return dict(zip(names, done))
 
 
 def triangle_measures(V, F):
     """Per-triangle area (m,), shape quality q (m,), smallest and largest angle in degrees (m,)."""
-    P = V[F]
-    e = P[:, [1, 2, 0]] - P                   # side j: corner j -> j+1
-    l2 = np.einsum("ijk,ijk->ij", e, e)
-    dblA = np.linalg.norm(np.cross(e[:, 0], e[:, 1]), axis=1)
-    area = 0.5 * dblA
-    with np.errstate(invalid="ignore", divide="ignore"):
-        q = 2.0 * np.sqrt(3.0) * dblA / l2.sum(axis=1)
-    # angle at corner j between side j (j -> j+1) and the reversed side j-1 (j -> j-1)
-    dots = -np.einsum("ijk,ijk->ij", e, e[:, [2, 0, 1]])
-    ang = np.degrees(np.arctan2(dblA[:, None], dots))
-    return area, q, ang.min(axis=1), ang.max(axis=1)
+    fm = face_measures(V, F)
+    return fm.area, fm.quality, fm.min_angle, fm.max_angle
 
 
 def normal_variation(V, F, table=None):
@@ -80,14 +90,7 @@ def normal_variation(V, F, table=None):
     interior edge: (p,) angles and (p, 2) face pairs. Diagnostic only."""
     if table is None:
         table = edge_table(F, len(V))
-    pairs, _ = face_pairs(F, table)
-    P = V[F]
-    N = np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0])
-    with np.errstate(invalid="ignore", divide="ignore"):
-        N /= np.linalg.norm(N, axis=1)[:, None]
-    a, b = N[pairs[:, 0]], N[pairs[:, 1]]
-    ang = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b)))
-    return ang, pairs
+    return normal_angles(unit_normals(V, F), table.pairs), table.pairs
 
 
 def _components(n, edges):
@@ -97,43 +100,53 @@ def _components(n, edges):
     return int(connected_components(g, directed=False)[0])
 
 
-def _as_arrays(mesh):
+def _parts(mesh):
+    """(V, F, preparation record, EdgeTable, FaceMeasures, connected components or None)
+    of a PreparedMesh (its own table and measures), trimesh.Trimesh or (V, F)."""
+    if hasattr(mesh, "table") and hasattr(mesh, "measures"):   # loading.PreparedMesh
+        info = mesh.info
+        # every vertex of a prepared mesh is used, so one piece is one component
+        comps = 1 if info.get("pieces") == 1 else None
+        return mesh.vertices, mesh.faces, info, mesh.table, mesh.measures, comps
     if isinstance(mesh, tuple):
         V, F = check_arrays(*mesh)
-        return V, F, {}
-    V, F = check_arrays(np.asarray(mesh.vertices), np.asarray(mesh.faces))
-    meta = getattr(mesh, "metadata", None) or {}
-    return V, F, meta.get("hullprod", {})
+        prep = {}
+    else:
+        V, F = check_arrays(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+        meta = getattr(mesh, "metadata", None) or {}
+        prep = meta.get("hullprod", {})
+    return V, F, prep, edge_table(F, len(V)), face_measures(V, F), None
 
 
 def mesh_quality(mesh):
-    """Quality and provenance summary of a triangle mesh (trimesh.Trimesh or (V, F)).
+    """Quality and provenance summary of a triangle mesh (loading.PreparedMesh,
+    trimesh.Trimesh or (V, F)).
 
     Returns a JSON-ready dict: counts, areas, topology, distributions (min/p01/p05/median/
     p95/p99/max/mean) and the advisory with its reasons (module docstring).
     """
-    V, F, prep = _as_arrays(mesh)
+    V, F, prep, table, fm, components = _parts(mesh)
     n, m = len(V), len(F)
-    table = edge_table(F, n)
     ne = len(table.count)
-    area, q, amin, amax = triangle_measures(V, F)
+    area, q, amin, amax = fm.area, fm.quality, fm.min_angle, fm.max_angle
     total = float(area.sum())
     vertex_area = np.bincount(F.ravel(), weights=np.repeat(area / 3.0, 3), minlength=n)
     be = table.edges[table.count == 1]
-    bnd = np.zeros(n, dtype=bool)
-    bnd[be.ravel()] = True
-    nme = table.edges[table.count > 2]
-    nmv = np.zeros(n, dtype=bool)
-    nmv[nme.ravel()] = True
-    lengths = np.linalg.norm(V[table.edges[:, 1]] - V[table.edges[:, 0]], axis=1)
+    bnd, nmv = table.vertex_flags(n)
+    n_nme = int(np.count_nonzero(table.count > 2))
+    lengths = edge_lengths(V, table.edges)
     valence = np.bincount(table.edges.ravel(), minlength=n)
     interior = ~bnd & ~nmv & (valence > 0)
     irregular = interior & ((valence < 4) | (valence > 8))
-    nvar, pairs = normal_variation(V, F, table)
-    _, same = face_pairs(F, table)
+    nvar = normal_angles(unit_normals(V, F), table.pairs)
+    same = table.same_direction(F)
     interior_edges = int(len(nvar))
     sharp = int(np.count_nonzero(nvar > SHARP_EDGE_DEG))
     vhist = np.bincount(valence)
+    if components is None:
+        components = _components(n, table.edges)
+    dist = summaries({"triangle_quality": q, "min_angle_deg": amin, "max_angle_deg": amax,
+                      "edge_length": lengths, "vertex_area": vertex_area, "normal_variation_deg": nvar})
     out = {
         "counts": {"vertices": n, "faces": m, "edges": ne},
         "total_area": total,
@@ -144,20 +157,20 @@ def mesh_quality(mesh):
             "vertex_fraction": float(bnd.mean()) if n else 0.0,
             "vertex_area_fraction": float(vertex_area[bnd].sum() / total) if total > 0 else 0.0,
         },
-        "nonmanifold": {"edges": int(len(nme)), "vertices": int(nmv.sum())},
+        "nonmanifold": {"edges": n_nme, "vertices": int(nmv.sum())},
         "inconsistent_winding_edges": int(np.count_nonzero(same)),
-        "connected_components": _components(n, table.edges),
-        "watertight": bool(len(be) == 0 and len(nme) == 0),
+        "connected_components": components,
+        "watertight": bool(len(be) == 0 and n_nme == 0),
         "degenerate_faces_removed": int(prep.get("degenerate_faces_removed", 0)),
         "duplicate_faces": int(prep.get("duplicate_faces", 0)),
         "non_orientable_faces": int(prep.get("non_orientable_faces", 0)),
-        "triangle_quality": summary(q),
+        "triangle_quality": dist["triangle_quality"],
         "sliver_fraction": float(np.mean(q < SLIVER_Q)) if m else 0.0,
         "low_quality_fraction": float(np.mean(q < LOW_Q)) if m else 0.0,
-        "min_angle_deg": summary(amin),
-        "max_angle_deg": summary(amax),
-        "edge_length": summary(lengths),
-        "vertex_area": summary(vertex_area),
+        "min_angle_deg": dist["min_angle_deg"],
+        "max_angle_deg": dist["max_angle_deg"],
+        "edge_length": dist["edge_length"],
+        "vertex_area": dist["vertex_area"],
         "valence": {
             "histogram": {int(k): int(c) for k, c in enumerate(vhist) if c},
             "min": int(valence.min()) if n else 0,
@@ -165,7 +178,7 @@ def mesh_quality(mesh):
             "mean": float(valence.mean()) if n else 0.0,
             "interior_irregular_fraction": float(irregular.sum() / max(1, interior.sum())),
         },
-        "normal_variation_deg": dict(summary(nvar), interior_edges=interior_edges,
+        "normal_variation_deg": dict(dist["normal_variation_deg"], interior_edges=interior_edges,
                                      above_30deg=sharp,
                                      note="diagnostic only, never part of the signature"),
     }

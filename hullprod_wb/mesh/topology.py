@@ -1,38 +1,78 @@
-"""Edge topology of a triangle list: undirected edges, how many faces use each, boundary
-and non-manifold vertices, winding consistency (paper section 4.2, representation
-provenance).
+"""Edge topology of a triangle list from one sort of its side keys: undirected edges, how
+many faces use each, the faces paired across every manifold edge, boundary and
+non-manifold vertices, winding consistency (paper section 4.2, representation provenance).
 
 Side j of face f runs from corner j to corner j+1 (mod 3). An undirected edge used by
 exactly one face is a boundary edge, by more than two a non-manifold edge.
+
+The sort is a counting sort: the sides are bucketed by their lower vertex and sorted by
+the higher one within each bucket (scipy's compressed-sparse-row construction, linear in
+the number of sides), so that the edges come out in the order of the keys
+min(a, b) * n + max(a, b), as a full sort of the keys would give them.
 """
 from dataclasses import dataclass
 
 import numpy as np
 
 
+def _index_dtype(limit):
+    return np.int32 if limit < np.iinfo(np.int32).max else np.int64
+
+
+def group_pairs(rows, cols, n_rows, n_cols):
+    """Grouping of the integer pairs (rows[i], cols[i]) in lexicographic order.
+
+    Returns (order (k,) int: the items sorted by (row, col), row (k,) and col (k,) of the
+    sorted items). Items with equal pairs are adjacent, in no particular order among
+    themselves. Linear: a counting sort by row, then a sort of each (short) row by col.
+    """
+    from scipy.sparse import coo_matrix
+    k = len(rows)
+    itype = _index_dtype(max(k, n_rows, n_cols) + 1)
+    data = np.arange(k, dtype=itype)
+    A = coo_matrix((data, (rows.astype(itype, copy=False), cols.astype(itype, copy=False))),
+                   shape=(n_rows, n_cols))
+    A.has_canonical_format = True      # keep repeated pairs apart: they are what we count
+    C = A.tocsr()
+    C.has_sorted_indices = False
+    C.sort_indices()
+    row = np.repeat(np.arange(n_rows, dtype=itype), np.diff(C.indptr))
+    return C.data, row, C.indices
+
+
 def side_keys(faces, n_vertices):
     """(m, 3) int64 key min(a, b) * n + max(a, b) of the undirected edge of each side."""
-    F = np.asarray(faces, dtype=np.int64)
-    n = np.int64(n_vertices)
-    keys = np.empty(F.shape, dtype=np.int64)
-    for j in range(3):  # three columns, not a loop over faces
-        a, b = F[:, j], F[:, (j + 1) % 3]
-        lo = np.minimum(a, b)
-        keys[:, j] = lo * n + (a + b - lo)
-    return keys
+    lo, hi = side_ends(faces)
+    return lo.astype(np.int64) * np.int64(n_vertices) + hi
+
+
+def side_ends(faces):
+    """(lo, hi): (m, 3) lower and higher vertex of the undirected edge of each side (int32
+    where the vertex ids allow it)."""
+    F = np.asarray(faces)
+    if len(F) and F.max() < np.iinfo(np.int32).max:
+        F = F.astype(np.int32)
+    nxt = np.empty_like(F)
+    nxt[:, :2] = F[:, 1:]
+    nxt[:, 2] = F[:, 0]
+    return np.minimum(F, nxt), np.maximum(F, nxt)
 
 
 @dataclass
 class EdgeTable:
     """Undirected edges of a triangle list.
 
-    edges: (e, 2) int64 vertex pairs (lo, hi); count: (e,) faces using each edge;
-    side_edge: (m, 3) edge id of each face side (or None when not requested).
+    edges: (e, 2) int vertex pairs (lo, hi) in key order; count: (e,) faces using each
+    edge; side_edge: (m, 3) edge id of each face side; pairs: (p, 2) faces sharing each
+    manifold edge (count 2), in edge order, lower face first; pair_sides: (p, 2) the
+    flat side ids (3 f + j) of those two faces.
     """
 
     edges: np.ndarray
     count: np.ndarray
-    side_edge: object = None
+    side_edge: np.ndarray = None
+    pairs: np.ndarray = None
+    pair_sides: np.ndarray = None
 
     @property
     def boundary(self):
@@ -44,68 +84,98 @@ class EdgeTable:
         """(e,) bool, edges used by more than two faces."""
         return self.count > 2
 
+    def vertex_flags(self, n_vertices):
+        """(boundary, nonmanifold) (n,) bool: vertices on an edge used by exactly one face,
+        and on an edge used by more than two faces (computed once, then shared: do not
+        modify them)."""
+        cached = getattr(self, "_flags", None)
+        if cached is not None and len(cached[0]) == int(n_vertices):
+            return cached
+        out = []
+        for sel in (self.count == 1, self.count > 2):
+            flag = np.zeros(int(n_vertices), dtype=bool)
+            flag[self.edges[sel].ravel()] = True
+            out.append(flag)
+        self._flags = tuple(out)
+        return self._flags
+
+    def same_direction(self, faces):
+        """(p,) bool per manifold edge: both faces run it the same way (their windings
+        disagree; with consistent orientation one runs a -> b, the other b -> a).
+        Remembered for these faces until flip_faces."""
+        cached = getattr(self, "_same", None)
+        if cached is not None and cached[0] is faces:
+            return cached[1]
+        F = np.asarray(faces)
+        forward = (F < F[:, [1, 2, 0]]).ravel()   # side runs lo -> hi
+        same = forward[self.pair_sides[:, 0]] == forward[self.pair_sides[:, 1]]
+        self._same = (faces, same)
+        return same
+
+    def flip_faces(self, flipped):
+        """Update the table after the faces flipped ((m,) bool) were reversed [a, b, c] ->
+        [c, b, a]: their sides 0 and 1 trade places, side 2 stays."""
+        if not np.any(flipped):
+            return
+        self._same = None
+        se = self.side_edge
+        se[flipped] = se[flipped][:, [1, 0, 2]]
+        swap = np.array([1, 0, 2])
+        ps = self.pair_sides
+        f = ps // 3
+        hit = flipped[f]
+        ps[hit] = 3 * f[hit] + swap[ps[hit] % 3]
+
 
 def edge_table(faces, n_vertices, with_sides=True):
-    """Sort the 3m side keys once and group them into undirected edges."""
-    keys = side_keys(faces, n_vertices).ravel()
-    n = np.int64(n_vertices)
-    if len(keys) == 0:
-        return EdgeTable(np.zeros((0, 2), np.int64), np.zeros(0, np.int64),
-                         np.zeros((0, 3), np.int64) if with_sides else None)
-    if with_sides:
-        order = np.argsort(keys, kind="stable")
-        s = keys[order]
-    else:
-        s = np.sort(keys, kind="stable")
-    new = np.empty(len(s), dtype=bool)
+    """Group the 3m sides into undirected edges with one counting sort (module docstring)."""
+    F = np.asarray(faces)
+    m = len(F)
+    if m == 0:
+        z = np.zeros((0, 2), np.int64)
+        return EdgeTable(z, np.zeros(0, np.int64), np.zeros((0, 3), np.int64), z, z)
+    lo, hi = side_ends(F)
+    n = int(n_vertices)
+    order, row, col = group_pairs(lo.ravel(), hi.ravel(), n, n)
+    del lo, hi
+    k = len(order)
+    new = np.empty(k, dtype=bool)
     new[0] = True
-    np.not_equal(s[1:], s[:-1], out=new[1:])
+    np.not_equal(col[1:], col[:-1], out=new[1:])
+    new[1:] |= row[1:] != row[:-1]
     starts = np.flatnonzero(new)
-    count = np.diff(np.append(starts, len(s)))
-    uk = s[starts]
-    edges = np.stack([uk // n, uk % n], axis=1)
-    side_edge = None
-    if with_sides:
-        eid = np.cumsum(new) - 1
-        side_edge = np.empty(len(s), dtype=np.int64)
-        side_edge[order] = eid
-        side_edge = side_edge.reshape(-1, 3)
-    return EdgeTable(edges, count, side_edge)
+    count = np.diff(np.append(starts, k))
+    edges = np.stack([row[starts], col[starts]], axis=1).astype(np.int64)
+    eid = np.cumsum(new) - 1
+    side_edge = np.empty(k, dtype=np.int64)
+    side_edge[order] = eid
+    del eid, new
+    two = starts[count == 2]
+    s1, s2 = order[two].astype(np.int64), order[two + 1].astype(np.int64)
+    pair_sides = np.stack([np.minimum(s1, s2), np.maximum(s1, s2)], axis=1)
+    return EdgeTable(edges, count, side_edge.reshape(-1, 3), pair_sides // 3, pair_sides)
 
 
 def vertex_flags(faces, n_vertices):
-    """Boundary and non-manifold vertex flags from one sort of the side keys.
+    """Boundary and non-manifold vertex flags from the edge table of faces.
 
     Returns (boundary (n,) bool: on an edge used by exactly one face,
     nonmanifold (n,) bool: on an edge used by more than two faces).
     """
-    n = int(n_vertices)
-    boundary = np.zeros(n, dtype=bool)
-    nonmanifold = np.zeros(n, dtype=bool)
-    s = np.sort(side_keys(faces, n).ravel(), kind="stable")
-    if len(s) == 0:
-        return boundary, nonmanifold
-    same = s[1:] == s[:-1]                    # same[i]: s[i] and s[i+1] are one edge
-    alone = np.ones(len(s), dtype=bool)       # key equal to neither neighbour: used once
-    alone[1:] &= ~same
-    alone[:-1] &= ~same
-    for keys, flag in ((s[alone], boundary), (s[:-2][same[1:] & same[:-1]], nonmanifold)):
-        lo = keys // n
-        flag[lo] = True
-        flag[keys - lo * n] = True
-    return boundary, nonmanifold
+    return edge_table(faces, n_vertices).vertex_flags(n_vertices)
 
 
 def face_pairs(faces, table):
-    """Faces sharing a manifold interior edge: (p, 2) face ids and (p,) bool same_direction.
+    """Faces sharing a manifold interior edge: (p, 2) face ids and (p,) bool same_direction
+    (see EdgeTable.same_direction). table is the EdgeTable of faces."""
+    return table.pairs, table.same_direction(faces)
 
-    same_direction is True where both faces run the shared edge the same way, i.e. their
-    windings disagree (with consistent orientation one runs a -> b, the other b -> a).
-    table is the EdgeTable of faces (with sides).
-    """
-    F = np.asarray(faces, dtype=np.int64)
-    side = table.side_edge.ravel()
-    forward = (F < np.roll(F, -1, axis=1)).ravel()  # side runs lo -> hi
-    sides = np.flatnonzero(table.count[side] == 2)
-    sides = sides[np.argsort(side[sides], kind="stable")].reshape(-1, 2)
-    return sides // 3, forward[sides[:, 0]] == forward[sides[:, 1]]
+
+def face_neighbours(table, m):
+    """(m, 3) face across each side over a manifold edge, -1 where the edge is a boundary
+    or non-manifold edge."""
+    nb = np.full(3 * m, -1, dtype=np.int64)
+    ps = table.pair_sides
+    nb[ps[:, 0]] = ps[:, 1] // 3
+    nb[ps[:, 1]] = ps[:, 0] // 3
+    return nb.reshape(-1, 3)
