@@ -272,8 +272,11 @@ def sameface_face(face, levels=SAMEFACE_LEVELS, patterns=PATTERNS, inset=DEFAULT
     progress = progress or null_progress
     levels = sorted(int(n) for n in levels)
     ev = SurfaceEvaluator.for_face(face)
-    out = {"face": number, "surface_kind": ev.kind, "area": float(face.Area),
+    area, why_area = face_area(face)
+    out = {"face": number, "surface_kind": ev.kind, "area": area,
            "orientation_sign": ev.orientation_sign, "reasons": {}}
+    if area is None:
+        out["reasons"]["area"] = why_area
     inside = _inside_function(face)
     out["abs_K_integral"] = abs_K_integral(face, ev, inside)
     if out["abs_K_integral"] is None:
@@ -356,10 +359,15 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
         sub = _sub_progress(progress, k / nf, (k + 1) / nf)
         try:
             rec = sameface_face(face, levels, patterns, inset, curvature, sub, number, align_creases)
-        except InputError as exc:
-            rec = {"face": number, "skipped": " ".join(str(exc).split()), "levels": [],
-                   "area": float(face.Area), "abs_K_integral": None,
-                   "reasons": {"abs_K_integral": "the face could not be set up: %s" % exc}}
+        except (InputError,) + occ_errors() as exc:
+            area, why_area = face_area(face)
+            why = " ".join(str(exc).split()) or type(exc).__name__
+            if not isinstance(exc, InputError):
+                why = "OpenCascade failed on the face: %s" % why
+            rec = {"face": number, "skipped": why, "levels": [], "area": area, "abs_K_integral": None,
+                   "reasons": {"abs_K_integral": "the face could not be set up: %s" % why}}
+            if area is None:
+                rec["reasons"]["area"] = why_area
         out_faces.append(rec)
     face_shares(out_faces, abs_K_share)
     progress(1.0, "same-face study done")
@@ -371,7 +379,13 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
             if why:
                 row["reasons"] = why
             table.append(row)
-    doc = {"study": "sameface", "input": brep.info, "units": brep.units,
+    info = dict(brep.info)
+    missing = [k for k, v in info.items() if v is None]
+    if missing:
+        why = ("the input is a shape in memory, not a file" if info.get("path") is None
+               else "not recorded by the BRep reader")
+        info["reasons"] = dict.fromkeys(missing, why)
+    doc = {"study": "sameface", "input": info, "units": brep.units,
            "settings": {"levels": levels, "patterns": list(patterns), "inset": float(inset),
                         "interior_rings": INTERIOR_RINGS, "align_creases": bool(align_creases),
                         "mask": ("two-ring strict interior of the boundary%s with finite, regular H and K "
@@ -385,6 +399,23 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
     if faces is None:
         doc["settings"]["reasons"] = {"faces_selected": "no --faces: every face of the shape"}
     return json_safe(doc)
+
+
+def occ_errors():
+    """The exception types FreeCAD raises for a failing OpenCascade operation on a damaged face."""
+    from ..freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    import Part
+    return tuple({getattr(FreeCAD.Base, "FreeCADError", RuntimeError), getattr(Part, "OCCError", RuntimeError)})
+
+
+def face_area(face):
+    """(area, None) of a Part.Face, or (None, reason) when OpenCascade cannot compute it."""
+    try:
+        return float(face.Area), None
+    except occ_errors() as exc:
+        return None, "OpenCascade cannot compute the face's area (%s)" % (" ".join(str(exc).split()) or
+                                                                         type(exc).__name__)
 
 
 def abs_K_shares(assessment):

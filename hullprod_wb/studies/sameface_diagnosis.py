@@ -25,8 +25,10 @@ Per face (:func:`face_diagnosis`), from the finest level: the knot structure ins
 region (C0 creases, C1 lines, close knot pairs: distinct knot lines closer than
 CLOSE_KNOTS of the grid spacing, which act as one line of higher multiplicity that the
 continuity test does not see; knot spans per panel) and the causes named from the
-measures above: ``resolution``, ``panel aspect``, ``knot lines``, ``finer knot spans than
-panels``, ``not refining``, ``localized`` and ``reference quasi-zero``.
+measures above: ``resolution``, ``curvature variation``, ``panel aspect``, ``knot lines``
+(each when the vertices it covers carry at least CAUSE_SHARE of a squared error), ``knot
+spans finer than panels``, ``not refining`` (finest error not below the coarsest),
+``localized`` (the worst 1 % carries at least LOCALIZED_SHARE) and ``reference quasi-zero``.
 """
 import numpy as np
 
@@ -219,7 +221,7 @@ def face_diagnosis(finest, coarsest, knots):
         if all(r.get("eps_" + q) is None for r in finest) and any(
                 r.get("%s_reference_negligible" % q) for r in finest):
             causes.append("reference quasi-zero (%s)" % q)
-            words.append("%s reference quasi-zero, no relative error" % q)
+            words.append("%s reference zero or quasi-zero, no relative error" % q)
     hk_max = _worst(finest, ("h_kappa", "max"))
     under = _worst(finest, ("h_kappa", "area_fraction_under_resolved"))
     s = _shares(finest, "under_resolved")
@@ -267,7 +269,10 @@ def face_diagnosis(finest, coarsest, knots):
     n_c0 = knots["u"]["creases"] + knots["v"]["creases"]
     if n_c0:
         words.append("%d crease(s) on grid lines, masked" % n_c0)
+    evidence = {"h_kappa_max": hk_max, "under_resolved_area": under, "panel_aspect_p95": asp,
+                "c1_lines": n_c1, "close_knot_pairs": n_close, "creases": n_c0, "knot_spans_per_panel": spans}
+    missing = [k for k, v in evidence.items() if v is None]
+    if missing:
+        evidence["reasons"] = dict.fromkeys(missing, "no retained vertex (or no finite panel) at the finest level")
     return {"causes": causes, "text": "; ".join(words) if words else "no limiting effect measured",
-            "evidence": {"h_kappa_max": hk_max, "under_resolved_area": under, "panel_aspect_p95": asp,
-                         "c1_lines": n_c1, "close_knot_pairs": n_close, "creases": n_c0,
-                         "knot_spans_per_panel": spans}}
+            "evidence": evidence}

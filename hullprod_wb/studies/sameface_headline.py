@@ -22,9 +22,9 @@ def face_shares(faces, abs_K_share=None):
     total = sum(v for v in est.values() if v is not None)
     for f in faces:
         f.setdefault("reasons", {})
-        f["area_share"] = f["area"] / total_area if total_area > 0 else None
+        f["area_share"] = f["area"] / total_area if (f.get("area") is not None and total_area > 0) else None
         if f["area_share"] is None:
-            f["reasons"]["area_share"] = "the faces have zero total area"
+            f["reasons"]["area_share"] = (f["reasons"].get("area") or "the faces have zero total area")
         if abs_K_share is not None:
             f["abs_K_share"] = abs_K_share.get(f["face"])
             f["abs_K_share_source"] = "BRep assessment (integral of |K| dA per face)"
