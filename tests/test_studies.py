@@ -400,6 +400,11 @@ def test_sameface_every_null_has_its_reason():
     # the headline is the only face; its K figure is null with the same reason
     assert doc["headline_face"]["face"] == 1
     assert doc["headline_face"]["eps_K"]["reasons"]["consistent"] == by[48]["reasons"]["eps_K"]
+    # at 12 panels alone nothing is retained: the diagnosis says so, and there is no headline
+    coarse = sameface_study(many_creases_face(), levels=(12,))
+    assert nulls_without_reason(coarse) == []
+    assert coarse["faces"][0]["diagnosis"]["causes"] == ["every vertex masked"]
+    assert coarse["headline_face"]["face"] is None and coarse["headline_face"]["passed_over"][0]["face"] == 1
 
 
 #: Shared hulls whose every same-face record is walked, with the levels used (the coarsest

@@ -30,7 +30,8 @@ crease exactly, and the vertices on crease rows are treated as boundary vertices
 smooth pieces in the two-ring mask (vertices within two edges of a crease row are excluded,
 exactly as next to the face boundary). The grid is still N x N, structured, and its
 vertices are still exact points S(u, v) of the unchanged face. A level whose N panels are
-fewer than the pieces cannot place every crease on a grid line (InputError). Without
+fewer than the pieces cannot place every crease on a grid line: its records are null with
+that reason. Without
 ``align_creases`` the grid is uniform and only the face boundary is masked.
 
 Diagnostic ``eps_*_smooth``: additionally without the vertices whose two-ring (grid rows

@@ -28,7 +28,8 @@ continuity test does not see; knot spans per panel) and the causes named from th
 measures above: ``resolution``, ``curvature variation``, ``panel aspect``, ``knot lines``
 (each when the vertices it covers carry at least CAUSE_SHARE of a squared error), ``knot
 spans finer than panels``, ``not refining`` (finest error not below the coarsest),
-``localized`` (the worst 1 % carries at least LOCALIZED_SHARE) and ``reference quasi-zero``.
+``localized`` (the worst 1 % carries at least LOCALIZED_SHARE), ``reference quasi-zero`` and
+``every vertex masked``.
 """
 import numpy as np
 
@@ -217,8 +218,11 @@ def face_diagnosis(finest, coarsest, knots):
     dict(causes [short names], text (one line), evidence).
     """
     causes, words = [], []
+    if all(r.get("n_retained") == 0 for r in finest):
+        causes.append("every vertex masked")
+        words.append(finest[0]["reasons"]["eps_H"])
     for q in ("H", "K"):
-        if all(r.get("eps_" + q) is None for r in finest) and any(
+        if all(r.get("eps_" + q) is None and r.get("n_retained") for r in finest) and any(
                 r.get("%s_reference_negligible" % q) for r in finest):
             causes.append("reference quasi-zero (%s)" % q)
             words.append("%s reference zero or quasi-zero, no relative error" % q)
@@ -233,9 +237,9 @@ def face_diagnosis(finest, coarsest, knots):
     if s:
         step = max(_worst(finest, ("variation", q, "max_step_over_rms")) or 0.0 for q in ("H", "K"))
         causes.append("curvature variation")
-        words.append("curvature variation: the BRep curvature changes by up to %.1f times its RMS between "
-                     "neighbouring vertices; where it changes by more than its RMS the area carries %s of "
-                     "the squared error" % (step, s))
+        words.append("curvature variation (resolution of the curvature field): the BRep H or K changes by up "
+                     "to %.1f times its RMS between neighbouring vertices; the vertices where it changes by "
+                     "more than its RMS carry %s of the squared error" % (step, s))
     asp = _worst(finest, ("panel_aspect", "p95"))
     s = _shares(finest, "stretched_panels")
     if s:
