@@ -31,12 +31,16 @@ smooth pieces in the two-ring mask (vertices within two edges of a crease row ar
 exactly as next to the face boundary). The grid is still N x N, structured, and its
 vertices are still exact points S(u, v) of the unchanged face. A level whose N panels are
 fewer than the pieces cannot place every crease on a grid line: its records are null with
-that reason. Without
-``align_creases`` the grid is uniform and only the face boundary is masked.
+that reason (:func:`unavailable_level`). Without ``align_creases`` the grid is uniform and
+only the face boundary is masked.
 
 Diagnostic ``eps_*_smooth``: additionally without the vertices whose two-ring (grid rows
 i-2 .. i+2) reaches a knot line below C2 (C1 lines, where H and K jump but the surface is
 tangent-continuous); equal to eps_H, eps_K on a face without such lines.
+
+Every null value of a record has its reason in the record's ``reasons``; each face has a
+diagnosis (:mod:`.sameface_diagnosis`); the document names the headline face (largest area)
+and the largest-|K| face (:mod:`.sameface_headline`).
 
 Inset region: an untrimmed face (its trimmed domain is its parameter rectangle) uses its
 ParameterRange shrunk by ``inset`` (default 5 %) of each parameter range at every side.
