@@ -552,4 +552,7 @@ def test_cli_sameface_json_contract(capsys, tmp_path):
     assert {r["pattern"] for r in face["levels"]} == {"consistent", "alternating"}
     assert all(0.0 < r["eps_H"] < 1.0 and 0.0 < r["eps_K"] < 1.0 for r in face["levels"])  # fractions
     assert (out / "study_sameface.json").is_file()
+    assert doc["headline_face"]["face"] == doc["largest_K_face"]["face"] == 1
+    assert doc["headline_face"]["rule"] == "largest area of the selected faces"
+    assert nulls_without_reason(doc) == []
     assert main(["study", "sameface", step, "--levels", "3", "--quiet"]) == 2

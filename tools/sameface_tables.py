@@ -24,7 +24,10 @@ SHARED = [("dtmb5415_half_overture.igs", "DTMB 5415 (Overture)"), ("kvlcc2_half_
 
 
 def p(x, digits=2):
-    return "-" if x is None else "%.*f" % (digits, 100.0 * x)
+    """100 x with `digits` decimals (two significant digits below the last decimal)."""
+    if x is None:
+        return "-"
+    return "%.*f" % (digits, 100.0 * x) if abs(100.0 * x) >= 10.0 ** -digits or x == 0 else "%.2g" % (100.0 * x)
 
 
 def g(x):
