@@ -240,7 +240,8 @@ def headline_rows(s):
         if rec.get("passed_over"):
             note = "larger faces passed over: %s. %s" % (
                 "; ".join("%s (%s)" % (f["face"], f["reason"]) for f in rec["passed_over"]), note)
-        nulls = "; ".join(_null_reasons(rec.get(q) or {}) for q in ("eps_H", "eps_K") if (rec.get(q) or {}).get("reasons"))
+        nulls = "; ".join(_null_reasons(rec.get(q) or {}) for q in ("eps_H", "eps_K")
+                          if (rec.get(q) or {}).get("reasons"))
         rows.append([label, rec["face"], pct(rec.get("area_share"), 1), pct(rec.get("abs_K_share"), 1),
                      _pair(rec, "eps_H"), _pair(rec, "eps_K"), (nulls + " " if nulls else "") + note])
     return rows
