@@ -345,6 +345,7 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
     every null value of a record has its reason in the record's ``reasons``.
     """
     from ..brep.loading import load_brep
+    from .sameface_diagnosis import diagnosis_settings
     from .sameface_headline import face_shares, headline_face, largest_K_face
     progress = progress or null_progress
     patterns = tuple(patterns)
@@ -398,7 +399,8 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
                                                            "grid lines)" if align_creases else "")),
                         "norm": "consistent P1 mass matrix on the physical triangles (eq:sameface_error)",
                         "H_sign": "one global sign of the recovered H by M-weighted correlation with the BRep H",
-                        "faces_selected": None if faces is None else list(faces)},
+                        "faces_selected": None if faces is None else list(faces),
+                        "diagnosis": diagnosis_settings()},
            "faces": out_faces, "headline_face": headline_face(out_faces, faces is not None),
            "largest_K_face": largest_K_face(out_faces), "table": table}
     if faces is None:

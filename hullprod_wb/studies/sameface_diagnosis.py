@@ -51,6 +51,14 @@ CAUSE_SHARE = 1.0 / 3.0
 LOCALIZED_SHARE = 0.5
 
 
+def diagnosis_settings():
+    """The constants of the diagnosis, recorded in the study document's settings."""
+    return {"under_resolved_h_kappa": UNDER_RESOLVED, "steep_variation_over_rms": STEEP_VARIATION,
+            "high_panel_aspect": HIGH_ASPECT, "worst_area_fraction": WORST_AREA,
+            "close_knots_fraction_of_spacing": CLOSE_KNOTS, "cause_share": CAUSE_SHARE,
+            "localized_share": LOCALIZED_SHARE}
+
+
 def _norms(x):
     return np.sqrt(np.einsum("...k,...k->...", x, x))
 
