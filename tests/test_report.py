@@ -26,11 +26,17 @@ class Page(HTMLParser):
     def __init__(self):
         super().__init__()
         self.stack, self.images, self.headings, self.text, self.errors = [], [], [], [], []
+        self.rows = []  # table rows as lists of cell texts
         self._in_h = None
+        self._cell = None
 
     def handle_starttag(self, tag, attrs):
         if tag == "img":
             self.images.append(dict(attrs))
+        if tag == "tr":
+            self.rows.append([])
+        if tag in ("td", "th"):
+            self._cell = []
         if tag not in self.VOID:
             self.stack.append(tag)
         if tag in ("h1", "h2", "h3"):
@@ -41,12 +47,17 @@ class Page(HTMLParser):
             self.errors.append("unexpected </%s> (open: %s)" % (tag, self.stack[-3:]))
             return
         self.stack.pop()
+        if tag in ("td", "th") and self._cell is not None:
+            self.rows[-1].append("".join(self._cell).strip())
+            self._cell = None
         if tag in ("h1", "h2", "h3") and self._in_h is not None:
             self.headings.append("".join(self._in_h))
             self._in_h = None
 
     def handle_data(self, data):
         self.text.append(data)
+        if self._cell is not None:
+            self._cell.append(data)
         if self._in_h is not None:
             self._in_h.append(data)
 
@@ -110,10 +121,15 @@ def test_mesh_report_is_valid_html_with_maps(tmp_path, mesh_assessment):
     text = open(path, encoding="utf-8").read()
     page = parse(text)
     assert "Signature" in page.headings and "Maps" in page.headings and "Mesh quality" in page.headings
-    body = "".join(page.text)
-    assert "MESH-SENSITIVE" in body or "VALID" in body
-    for m in ("I_D", "I_D+", "I_D-", "a_flat", "a_single", "a_elliptic", "a_saddle"):
-        assert m in body
+    # each metric's own row of the signature table carries its own status and value
+    header = next(r for r in page.rows if r[:3] == ["metric", "value", "status"])
+    signature = {r[0]: r for r in page.rows if len(r) == len(header)}
+    from hullprod_wb.core.constants import METRIC_LABELS, METRICS
+    for m in METRICS:
+        row = signature[METRIC_LABELS[m]]
+        rec = mesh_assessment.validity[m]
+        assert row[2] == rec.status.value, (m, row)
+        assert row[1] == ("-" if rec.value is None else "%.8g" % rec.value), (m, row)
     images = decode_images(page)
     assert len(images) == 2  # density and class maps
     for data in images:
@@ -143,6 +159,12 @@ def test_study_only_report_and_bad_input(tmp_path, studies):
     from hullprod_wb.studies import report_html, write_report
     page = parse(report_html(None, studies[0]))
     assert "Same-face BRep-to-mesh curvature recovery" in page.headings
+    # the headline row names the face of largest area with its finest-level figures
+    head = next(r for r in page.rows if r and r[0].startswith("headline: largest area"))
+    face = studies[0]["headline_face"]
+    assert head[1] == str(face["face"])
+    assert head[4] == "%.3f / %.3f" % (100 * face["eps_H"]["consistent"], 100 * face["eps_H"]["alternating"])
+    assert any(r and r[0].startswith("largest |K| share") for r in page.rows)
     with pytest.raises(InputError):
         write_report(None, str(tmp_path / "x.html"))
     with pytest.raises(InputError):

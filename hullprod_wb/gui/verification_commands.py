@@ -49,16 +49,21 @@ class _Study(_Command):
         from ..studies import write_report
         folder = tempfile.mkdtemp(prefix="hullprod-%s-" % self.kind)
         path = write_report(None, os.path.join(folder, "report.html"), studies=study)
-        FreeCAD.Console.PrintMessage("HullProd %s study of %s: %s\n" % (self.kind, src.Label, path))
+        headline = ""
+        if self.kind == "sameface":
+            from ..studies.cli import sameface_summary
+            headline = "\n".join(sameface_summary(study)[:2]) + "\n"
+        FreeCAD.Console.PrintMessage("HullProd %s study of %s: %s\n%s" % (self.kind, src.Label, path, headline))
         if dialogs.INTERACTIVE:
             webbrowser.open("file://" + path)
-        dialogs.info("%s study" % self.kind, "Report written to\n%s" % path)
+        dialogs.info("%s study" % self.kind, "%sReport written to\n%s" % (headline, path))
 
 
 class StudySameFace(_Study):
     name = "HullProd_StudySameFace"
     menu = "Same-face curvature &recovery"
-    tip = "BRep-to-mesh curvature recovery on 12x12, 24x24, 48x48 grids of each face (eps_H, eps_K)"
+    tip = ("BRep-to-mesh curvature recovery on 12x12, 24x24, 48x48 grids of each face (eps_H, eps_K); "
+           "headline: the face of largest area, with the largest-|K| face beside it")
     kind = "sameface"
 
     def compute(self, src, faces, lref, progress):

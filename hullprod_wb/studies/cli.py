@@ -103,25 +103,62 @@ def _g(x, digits=6):
     return "-" if x is None else "%.*g" % (digits, x)
 
 
+def _figure_line(label, rec):
+    """One line for the headline or largest-|K| face of a same-face document."""
+    if rec is None or rec.get("face") is None:
+        return "%s: none (%s)" % (label, "; ".join((rec or {}).get("reasons", {}).values()))
+    def pair(q):
+        x = rec.get(q)
+        if x is None:
+            return "-"
+        return " / ".join(_p(x.get(p)).strip() for p in ("consistent", "alternating") if p in x)
+    extra = ""
+    if rec.get("passed_over"):
+        extra = " (larger faces passed over: %s)" % ", ".join(
+            "%s: %s" % (f["face"], f["reason"]) for f in rec["passed_over"])
+    share = "" if rec.get("abs_K_share") is None else ", %.1f %% of int |K| dA" % (100 * rec["abs_K_share"])
+    return "%s: face %s%s, %sx%s, 100 eps_H c/a %s, 100 eps_K c/a %s%s" % (
+        label, rec["face"], share, rec.get("panels"), rec.get("panels"), pair("eps_H"), pair("eps_K"), extra)
+
+
+def sameface_summary(doc):
+    """Lines of the plain-text same-face table: the headline and largest-|K| faces, every
+    face's records with the reasons of its null values, its ratios and its diagnosis."""
+    hl = doc.get("headline_face") or {}
+    lines = [_figure_line("headline (%s)" % hl.get("rule", "largest area"), hl),
+             _figure_line("largest |K| share (%s)" % ((doc.get("largest_K_face") or {}).get("abs_K_share_source")
+                                                      or "-"), doc.get("largest_K_face")),
+             "same-face curvature recovery, 100 eps (eq:sameface_error), two-ring mask with crease "
+             "rows as boundary; 'smooth' also without the two-ring of knot lines below C2",
+             "%5s %6s %-11s %8s %8s %8s %8s %6s" % ("face", "panels", "pattern", "eps_H%", "eps_K%",
+                                                   "smoothH%", "smoothK%", "kept")]
+    for f in doc["faces"]:
+        if f.get("skipped"):
+            lines.append("%5s skipped: %s" % (f["face"], f["skipped"]))
+        for r in f["levels"]:
+            kept = "-" if r["n_retained"] is None else "%d" % r["n_retained"]
+            lines.append("%5s %6d %-11s %8s %8s %8s %8s %6s" % (
+                f["face"], r["panels"], r["pattern"], _p(r["eps_H"]), _p(r["eps_K"]),
+                _p(r.get("eps_H_smooth")), _p(r.get("eps_K_smooth")), kept))
+            for why in sorted(set(r.get("reasons", {}).values())):
+                keys = [k for k, v in r["reasons"].items() if v == why]
+                lines.append("%5s %6s %-11s null %s: %s" % ("", "", "", ", ".join(keys), why))
+        for q in f.get("ratios", []):
+            lines.append("%5s ratio %d/%d %-11s eps_H %s eps_K %s" % (
+                f["face"], q["fine"], q["coarse"], q["pattern"], _g(q["eps_H_ratio"], 4), _g(q["eps_K_ratio"], 4)))
+            for k, why in sorted(q.get("reasons", {}).items()):
+                lines.append("%5s %6s %-11s null %s: %s" % ("", "", "", k, why))
+        if f.get("diagnosis"):
+            lines.append("%5s diagnosis: %s" % (f["face"], f["diagnosis"]["text"]))
+    return lines
+
+
 def study_summary(doc):
     """Plain-text table of a study document."""
     kind = doc["study"]
     lines = []
     if kind == "sameface":
-        lines.append("same-face curvature recovery, 100 eps (eq:sameface_error), two-ring mask with crease "
-                     "rows as boundary; 'smooth' also without the two-ring of knot lines below C2")
-        lines.append("%5s %6s %-11s %8s %8s %8s %8s %6s" % ("face", "panels", "pattern", "eps_H%", "eps_K%",
-                                                         "smoothH%", "smoothK%", "kept"))
-        for f in doc["faces"]:
-            if f.get("skipped"):
-                lines.append("%5s skipped: %s" % (f["face"], f["skipped"]))
-            for r in f["levels"]:
-                lines.append("%5s %6d %-11s %8s %8s %8s %8s %6d" % (
-                    f["face"], r["panels"], r["pattern"], _p(r["eps_H"]), _p(r["eps_K"]),
-                    _p(r.get("eps_H_smooth")), _p(r.get("eps_K_smooth")), r["n_retained"]))
-            for q in f.get("ratios", []):
-                lines.append("%5s ratio %d/%d %-11s eps_H %s eps_K %s" % (
-                    f["face"], q["fine"], q["coarse"], q["pattern"], _g(q["eps_H_ratio"], 4), _g(q["eps_K_ratio"], 4)))
+        lines += sameface_summary(doc)
     elif kind == "refinement":
         lines.append("mesh-resolution sensitivity, L_ref = %s; changes against the finest level" % _g(doc["lref"], 8))
         lines.append("%-10s %9s %12s %9s %9s %9s %8s" % ("level", "triangles", "I_D", "dI_D%", "dI_D+%", "dI_D-%", "d1"))

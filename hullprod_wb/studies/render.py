@@ -176,21 +176,35 @@ def render_class_map(fields, title=None, views=("profile", "bottom"), fractions=
     return _png(fig)
 
 
+#: Faces drawn with a legend entry each in the same-face plot; with more faces only the
+#: headline and largest-|K| faces are labelled and the others drawn thin and grey.
+LABELLED_FACES = 6
+
+
 def render_sameface_errors(study):
     """PNG bytes of eps_H and eps_K against panels (log-log), one line per face and pattern."""
     fig = _figure(1, width=9.0)
     axes = fig.subplots(1, 2)
     styles = {"consistent": "-o", "alternating": "--s"}
-    for face in study.get("faces", []):
+    faces = study.get("faces", [])
+    named = {(study.get(k) or {}).get("face"): k for k in ("headline_face", "largest_K_face")}
+    few = sum(1 for f in faces if f.get("levels")) <= LABELLED_FACES
+    for face in faces:
+        key = named.get(face["face"]) if face["face"] is not None else None
         for pattern, style in styles.items():
             recs = sorted((r for r in face.get("levels", []) if r["pattern"] == pattern),
                           key=lambda r: r["panels"])
             for ax, q in zip(axes, ("eps_H", "eps_K")):
                 pts = [(r["panels"], r[q]) for r in recs if r[q] is not None and r[q] > 0]
-                if pts:
-                    n, e = zip(*pts)
+                if not pts:
+                    continue
+                n, e = zip(*pts)
+                if few or key:
+                    tag = {"headline_face": " (headline)", "largest_K_face": " (largest |K|)"}.get(key, "")
                     ax.loglog(n, [100 * x for x in e], style, ms=3, lw=1,
-                              label="face %s %s" % (face["face"], pattern))
+                              label="face %s%s %s" % (face["face"], tag, pattern))
+                else:
+                    ax.loglog(n, [100 * x for x in e], "-", color="#bbbbbb", lw=0.5, zorder=0)
     for ax, q in zip(axes, ("H", "K")):
         ax.set_xlabel("panels per direction", fontsize=8)
         ax.set_ylabel("100 eps_%s [%%]" % q, fontsize=8)

@@ -210,6 +210,43 @@ def provenance_section(a):
 # study sections
 
 
+def _pair(rec, q):
+    x = rec.get(q)
+    if x is None:
+        return "-"
+    return " / ".join(pct(x.get(p)) for p in ("consistent", "alternating") if p in x)
+
+
+def _null_reasons(rec):
+    """'key: reason' text of a record's null values (one line per distinct reason)."""
+    by = {}
+    for k, v in (rec.get("reasons") or {}).items():
+        by.setdefault(v, []).append(k)
+    return "; ".join("%s: %s" % (", ".join(ks), v) for v, ks in by.items())
+
+
+def headline_rows(s):
+    """Rows of the headline and largest-|K| faces of a same-face document."""
+    rows = []
+    for label, rec in (("headline: " + (s.get("headline_face") or {}).get("rule", "largest area"),
+                        s.get("headline_face")),
+                       ("largest |K| share (%s)" % ((s.get("largest_K_face") or {}).get("abs_K_share_source") or "-"),
+                        s.get("largest_K_face"))):
+        rec = rec or {}
+        if rec.get("face") is None:
+            rows.append([label, "-", "", "", "", "", _null_reasons(rec)])
+            continue
+        note = rec.get("diagnosis") or ""
+        if rec.get("passed_over"):
+            note = "larger faces passed over: %s. %s" % (
+                "; ".join("%s (%s)" % (f["face"], f["reason"]) for f in rec["passed_over"]), note)
+        nulls = "; ".join(_null_reasons(rec.get(q) or {}) for q in ("eps_H", "eps_K")
+                          if (rec.get(q) or {}).get("reasons"))
+        rows.append([label, rec["face"], pct(rec.get("area_share"), 1), pct(rec.get("abs_K_share"), 1),
+                     _pair(rec, "eps_H"), _pair(rec, "eps_K"), (nulls + " " if nulls else "") + note])
+    return rows
+
+
 def sameface_section(s):
     from .render import render_sameface_errors
     parts = ["<h2>Same-face BRep-to-mesh curvature recovery</h2>",
@@ -218,20 +255,27 @@ def sameface_section(s):
              "of eq:sameface_error with the consistent P1 mass matrix on the common two-ring "
              "strict-interior mask, crease rows counted as boundary; one global sign for H. "
              "'smooth': also without the vertices whose two-ring crosses a knot line below C2 "
-             "(where the BRep H, K jump).</p>" % esc(fmt(s["settings"]["inset"]))]
+             "(where the BRep H, K jump). The headline face is the face of largest area; the face "
+             "with the largest share of the integral of |K| is named beside it.</p>" % esc(fmt(s["settings"]["inset"]))]
+    parts.append("<h3>Headline (100 eps at the finest level, consistent / alternating)</h3>")
+    parts.append(table(["face", "number", "area share %", "|K| share %", "eps_H %", "eps_K %", "diagnosis"],
+                       headline_rows(s), left=(0, 6)))
     summary = []
     for f in s["faces"]:
         if f.get("skipped"):
-            summary.append([f["face"], "skipped: " + f["skipped"], "", "", "", "", ""])
+            summary.append([f["face"], "skipped: " + f["skipped"], "", "", "", "", pct(f.get("abs_K_share"), 1), ""])
             continue
-        fine = max(r["panels"] for r in f["levels"])
-        by = {r["pattern"]: r for r in f["levels"] if r["panels"] == fine}
+        recs = [r for r in f["levels"] if not r.get("unavailable")]
+        fine = max(r["panels"] for r in recs)
+        by = {r["pattern"]: r for r in recs if r["panels"] == fine}
         c, al = by.get("consistent", {}), by.get("alternating", {})
+        nulls = "; ".join(sorted({_null_reasons(r) for r in (c, al) if r.get("reasons")}))
         summary.append([f["face"], f.get("surface_kind"), pct(c.get("eps_H")), pct(al.get("eps_H")),
-                        pct(c.get("eps_K")), pct(al.get("eps_K")), pct(f.get("abs_K_share"), 1)])
+                        pct(c.get("eps_K")), pct(al.get("eps_K")), pct(f.get("abs_K_share"), 1),
+                        (nulls + ". " if nulls else "") + f["diagnosis"]["text"]])
     parts.append("<h3>Finest level (100 eps, as paper Table tab:same_face_verification)</h3>")
     parts.append(table(["face", "surface", "H consistent %", "H alternating %", "K consistent %",
-                        "K alternating %", "|K| share %"], summary, left=(1,)))
+                        "K alternating %", "|K| share %", "diagnosis (null values: reason)"], summary, left=(1, 7)))
     for f in s["faces"]:
         if f.get("skipped"):
             continue
@@ -239,18 +283,21 @@ def sameface_section(s):
         parts.append('<p class="note">parameter rectangle u in [%s, %s], v in [%s, %s]</p>'
                      % tuple(esc(fmt(x)) for x in f["rect"]))
         rows = [[r["panels"], r["pattern"], pct(r["eps_H"]), pct(r["eps_K"]), pct(r.get("eps_H_smooth")),
-                 pct(r.get("eps_K_smooth")), r["n_retained"], r["H_sign"],
-                 fmt(r["median_abs_error_H"], 3), fmt(r["p95_abs_error_H"], 3),
-                 fmt(r["median_abs_error_K"], 3), fmt(r["p95_abs_error_K"], 3),
-                 ("H " if r.get("H_reference_negligible") else "") + ("K" if r.get("K_reference_negligible") else "")]
+                 pct(r.get("eps_K_smooth")), fmt(r["n_retained"]), fmt(r.get("H_sign")),
+                 fmt(r.get("median_abs_error_H"), 3), fmt(r.get("p95_abs_error_H"), 3),
+                 fmt(r.get("median_abs_error_K"), 3), fmt(r.get("p95_abs_error_K"), 3),
+                 ("H " if r.get("H_reference_negligible") else "") + ("K" if r.get("K_reference_negligible") else ""),
+                 _null_reasons(r)]
                 for r in f["levels"]]
         parts.append(table(["panels", "pattern", "eps_H %", "eps_K %", "smooth eps_H %", "smooth eps_K %",
                             "retained", "H sign", "median |dH|", "p95 |dH|", "median |dK|", "p95 |dK|",
-                            "quasi-zero ref."], rows, left=(1,)))
-        parts.append(table(["pattern", "eps_H ratio %s/%s" % (f["ratios"][0]["fine"], f["ratios"][0]["coarse"])
-                            if f["ratios"] else "eps_H ratio", "eps_K ratio"],
-                           [[r["pattern"], fmt(r["eps_H_ratio"], 4), fmt(r["eps_K_ratio"], 4)] for r in f["ratios"]],
-                           left=(0,)))
+                            "quasi-zero ref.", "null values: reason"], rows, left=(1, 13)))
+        if f["ratios"]:
+            parts.append(table(["pattern", "eps_H ratio %s/%s" % (f["ratios"][0]["fine"], f["ratios"][0]["coarse"]),
+                                "eps_K ratio", "null values: reason"],
+                               [[r["pattern"], fmt(r["eps_H_ratio"], 4), fmt(r["eps_K_ratio"], 4), _null_reasons(r)]
+                                for r in f["ratios"]], left=(0, 3)))
+        parts.append('<p class="note">Diagnosis: %s</p>' % esc(f["diagnosis"]["text"]))
     if any(f.get("levels") for f in s["faces"]):
         parts.append(png_img(render_sameface_errors(s), "same-face errors against grid level"))
     return "".join(parts)

@@ -30,12 +30,17 @@ crease exactly, and the vertices on crease rows are treated as boundary vertices
 smooth pieces in the two-ring mask (vertices within two edges of a crease row are excluded,
 exactly as next to the face boundary). The grid is still N x N, structured, and its
 vertices are still exact points S(u, v) of the unchanged face. A level whose N panels are
-fewer than the pieces cannot place every crease on a grid line (InputError). Without
-``align_creases`` the grid is uniform and only the face boundary is masked.
+fewer than the pieces cannot place every crease on a grid line: its records are null with
+that reason (:func:`unavailable_level`). Without ``align_creases`` the grid is uniform and
+only the face boundary is masked.
 
 Diagnostic ``eps_*_smooth``: additionally without the vertices whose two-ring (grid rows
 i-2 .. i+2) reaches a knot line below C2 (C1 lines, where H and K jump but the surface is
 tangent-continuous); equal to eps_H, eps_K on a face without such lines.
+
+Every null value of a record has its reason in the record's ``reasons``; each face has a
+diagnosis (:mod:`.sameface_diagnosis`); the document names the headline face (largest area)
+and the largest-|K| face (:mod:`.sameface_headline`).
 
 Inset region: an untrimmed face (its trimmed domain is its parameter rectangle) uses its
 ParameterRange shrunk by ``inset`` (default 5 %) of each parameter range at every side.
@@ -45,276 +50,15 @@ by the same inset fraction of that rectangle's ranges; every grid vertex of ever
 then checked to lie inside the trimmed domain.
 """
 import numpy as np
-from scipy import sparse
 
 from ..core.errors import InputError
 from ..core.progress import null_progress
 from ..core.writers import json_safe
-
-#: Grid levels (panels per parameter direction) of the paper's study.
-SAMEFACE_LEVELS = (12, 24, 48)
-#: Triangle-diagonal patterns.
-PATTERNS = ("consistent", "alternating")
-#: Inset of the parameter rectangle at each side, as a fraction of each parameter range.
-DEFAULT_INSET = 0.05
-#: Raster resolution used to find the largest rectangle inside a trimmed domain.
-RASTER = 96
-#: A reference whose RMS, made dimensionless with the grid's diagonal d (|H| d, |K| d^2),
-#: is at most this is quasi-zero: its relative error is reported but flagged (paper's
-#: default h_f = k_f = 1e-4 as the quasi-zero scale).
-NEGLIGIBLE_H = 1e-4
-NEGLIGIBLE_K = 1e-4
-#: Rings around boundary vertices excluded from the comparison (two-ring strict interior).
-INTERIOR_RINGS = 2
-
-
-# ---------------------------------------------------------------------------------------------
-# structured grid
-
-
-def panel_split(lengths, n):
-    """(k,) int panels per piece of a parameter interval cut into pieces of the given (k,)
-    float lengths: proportional to the lengths, at least one each, summing to n (largest
-    remainder). Raises InputError when n < k."""
-    L = np.asarray(lengths, dtype=float)
-    k, n = len(L), int(n)
-    if k > n:
-        raise InputError("%d panels cannot place a grid line on each of the %d crease lines "
-                         "inside the region" % (n, k - 1))
-    ideal = n * L / L.sum()
-    count = np.maximum(1, np.floor(ideal).astype(int))
-    while count.sum() < n:                      # k iterations at most
-        count[np.argmax(ideal - count)] += 1
-    while count.sum() > n:
-        count[np.argmax(np.where(count > 1, count - ideal, -np.inf))] -= 1
-    return count
-
-
-def grid_lines(lo, hi, n, creases=()):
-    """(n+1,) float parameter lines over [lo, hi] with every crease in (lo, hi) on a line,
-    and the (k,) int indices of the crease lines.
-
-    Without creases: np.linspace(lo, hi, n + 1). With creases, [lo, hi] is cut at them and
-    piece p gets :func:`panel_split` panels, uniform inside the piece.
-    """
-    lo, hi = float(lo), float(hi)
-    c = np.unique(np.asarray(creases, dtype=float))
-    c = c[(c > lo) & (c < hi)]
-    if c.size == 0:
-        return np.linspace(lo, hi, int(n) + 1), np.empty(0, dtype=np.int64)
-    edges = np.r_[lo, c, hi]
-    count = panel_split(np.diff(edges), n)
-    lines = np.concatenate([np.linspace(edges[p], edges[p + 1], count[p] + 1)[:-1]
-                            for p in range(len(count))] + [[hi]])
-    return lines, np.cumsum(count)[:-1].astype(np.int64)
-
-
-def grid_parameters(rect, n, creases=None):
-    """(u, v) of the (n+1)^2 grid vertices over rect = (u0, u1, v0, v1), each ((n+1)^2,) float.
-
-    Vertex (i, j) (i along u, j along v) has index i (n+1) + j. creases: None (uniform grid)
-    or (u_creases, v_creases), parameter values placed on grid lines (:func:`grid_lines`).
-    """
-    u0, u1, v0, v1 = (float(x) for x in rect)
-    cu, cv = (), ()
-    if creases is not None:
-        cu, cv = creases
-    ul, _ = grid_lines(u0, u1, n, cu)
-    vl, _ = grid_lines(v0, v1, n, cv)
-    uu, vv = np.meshgrid(ul, vl, indexing="ij")
-    return uu.ravel(), vv.ravel()
-
-
-def grid_triangles(n, pattern="consistent", flip=False):
-    """(2 n^2, 3) int triangles of an n x n panel grid (vertex (i, j) -> i (n+1) + j).
-
-    The grid of :func:`hullprod_wb.examples.analytic_meshes.grid_faces`: quad corners
-    a = (i, j), b = (i+1, j), c = (i+1, j+1), d = (i, j+1) are counter-clockwise in (u, v), so
-    the normals follow S_u x S_v (reversed when flip). 'consistent' splits every quad along
-    b-d, 'alternating' along b-d and a-c in a checkerboard.
-    """
-    from ..examples.analytic_meshes import grid_faces
-    if pattern not in PATTERNS:
-        raise InputError("unknown diagonal pattern %r (choose from %s)" % (pattern, ", ".join(PATTERNS)))
-    if int(n) < 1:
-        raise InputError("a grid needs at least one panel per direction, got %r" % (n,))
-    tri = grid_faces(int(n) + 1, int(n) + 1, pattern)
-    if flip:
-        tri = tri[:, [0, 2, 1]]
-    return np.ascontiguousarray(tri, dtype=np.int64)
-
-
-# ---------------------------------------------------------------------------------------------
-# mesh operators
-
-
-def mesh_edges(triangles):
-    """Unique undirected edges (k, 2) int and how many triangles use each (k,) int."""
-    T = np.asarray(triangles, dtype=np.int64)
-    e = np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
-    return np.unique(e, axis=0, return_counts=True)
-
-
-def strict_interior(triangles, n_vertices, rings=INTERIOR_RINGS, seeds=None):
-    """(n,) bool: vertices with no boundary (or seed) vertex within `rings` edges.
-
-    Boundary vertices lie on an edge used by one triangle only; seeds: optional (n,) bool of
-    further vertices treated like boundary vertices (crease rows). The excluded set is their
-    union dilated `rings` times along the edge graph (rings = 2: the two-ring strict
-    interior, whose curvature stencils never see an incomplete neighbourhood).
-    """
-    edges, count = mesh_edges(triangles)
-    near = np.zeros(n_vertices, dtype=bool)
-    near[edges[count == 1].ravel()] = True
-    if seeds is not None:
-        near |= np.asarray(seeds, dtype=bool)
-    n_edges = len(edges)
-    A = sparse.coo_matrix((np.ones(2 * n_edges), (np.r_[edges[:, 0], edges[:, 1]],
-                                                  np.r_[edges[:, 1], edges[:, 0]])),
-                          shape=(n_vertices, n_vertices)).tocsr()
-    for _ in range(int(rings)):
-        near = near | (A @ near.astype(float) > 0)
-    used = np.zeros(n_vertices, dtype=bool)
-    used[np.asarray(triangles).ravel()] = True
-    return used & ~near
-
-
-def triangle_areas(vertices, triangles):
-    """(m,) float physical areas |(x1 - x0) x (x2 - x0)| / 2."""
-    V = np.asarray(vertices, dtype=float)
-    T = np.asarray(triangles, dtype=np.int64)
-    c = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
-    return 0.5 * np.sqrt(np.einsum("ij,ij->i", c, c))
-
-
-def p1_mass_matrix(vertices, triangles):
-    """Consistent P1 mass matrix (n, n) scipy.sparse.csr: M_ij = sum_t A_t/12 (1 + delta_ij)."""
-    T = np.asarray(triangles, dtype=np.int64)
-    A = triangle_areas(vertices, T)
-    rows = np.repeat(T, 3, axis=1).ravel()          # (a a a b b b c c c)
-    cols = np.tile(T, (1, 3)).ravel()               # (a b c a b c a b c)
-    local = np.array([2.0, 1.0, 1.0, 1.0, 2.0, 1.0, 1.0, 1.0, 2.0]) / 12.0
-    vals = (A[:, None] * local[None, :]).ravel()
-    n = len(vertices)
-    return sparse.coo_matrix((vals, (rows, cols)), shape=(n, n)).tocsr()
-
-
-def relative_l2_error(x_h, x_ref, M, mask):
-    """eps = sqrt(d^T M d / x_ref^T M x_ref) with both vectors zeroed outside mask
-    (eq:sameface_error); None when the reference norm is zero."""
-    m = np.asarray(mask, dtype=bool)
-    xr = np.where(m, x_ref, 0.0)
-    d = np.where(m, x_h, 0.0) - xr
-    den = float(xr @ (M @ xr))
-    num = float(d @ (M @ d))
-    if not den > 0.0:
-        return None
-    return float(np.sqrt(max(num, 0.0) / den))
-
-
-def h_sign_alignment(H_h, H_ref, M, mask):
-    """+1 or -1: sign of the M-weighted correlation sum(H_h M H_ref) over the mask."""
-    m = np.asarray(mask, dtype=bool)
-    a = np.where(m, H_h, 0.0)
-    b = np.where(m, H_ref, 0.0)
-    return -1 if float(a @ (M @ b)) < 0.0 else 1
-
-
-# ---------------------------------------------------------------------------------------------
-# the parameter rectangle
-
-
-def _inside_function(face):
-    """Vectorised inside(u, v) -> bool for the face's trimmed domain, and its description.
-
-    Uses the exact trimmed domain (p-curves); when it cannot be built, OpenCascade's
-    per-point face classifier (Part.Face.isPartOfDomain).
-    """
-    from ..brep.trimmed_domain import TrimmedDomain
-    try:
-        domain = TrimmedDomain.from_face(face)
-    except InputError as exc:
-        def inside_occ(u, v):
-            u = np.asarray(u, float).ravel()
-            v = np.asarray(v, float).ravel()
-            return np.array([bool(face.isPartOfDomain(float(a), float(b))) for a, b in zip(u, v)])
-        return inside_occ, False, "OpenCascade face classifier (trim curves unusable: %s)" % exc
-
-    def inside(u, v):
-        u = np.asarray(u, float).ravel()
-        v = np.asarray(v, float).ravel()
-        out = np.zeros(u.size, dtype=bool)
-        idx, lo, hi = domain.v_intervals(u)
-        if idx.size:
-            hit = (v[idx] >= lo) & (v[idx] <= hi)
-            out[idx[hit]] = True
-        return out
-    return inside, bool(domain.is_rectangle), "trim-curve domain"
-
-
-def largest_rectangle(grid):
-    """Largest all-True axis-parallel rectangle of a (r, c) bool raster.
-
-    Returns (i0, i1, j0, j1), inclusive row and column ranges, or None. Row-by-row
-    maximal rectangle under a histogram (stack method), O(r c).
-    """
-    r, c = grid.shape
-    heights = np.zeros(c, dtype=int)
-    best, box = 0, None
-    for i in range(r):
-        heights = np.where(grid[i], heights + 1, 0)
-        stack = []
-        for j in range(c + 1):
-            h = heights[j] if j < c else 0
-            start = j
-            while stack and stack[-1][1] >= h:
-                start, hs = stack.pop()
-                area = hs * (j - start)
-                if area > best:
-                    best, box = area, (i - hs + 1, i, start, j - 1)
-            stack.append((start, h))
-    return box
-
-
-def inset_rectangle(face, inset=DEFAULT_INSET, check_levels=SAMEFACE_LEVELS, creases=None):
-    """Parameter rectangle of the same-face grids for a Part.Face (see module docstring).
-
-    creases: None or a callable rect -> (u_creases, v_creases) whose lines the checked grids
-    place on grid lines (:func:`grid_parameters`). Returns dict(rect (u0, u1, v0, v1),
-    base_rect, trimmed, method, inset). Raises InputError when no rectangle inside the
-    trimmed domain is found.
-    """
-    if not 0.0 <= float(inset) < 0.5:
-        raise InputError("the inset must be a fraction in [0, 0.5), got %r" % (inset,))
-    U0, U1, V0, V1 = (float(x) for x in face.ParameterRange)
-    if not (U1 > U0 and V1 > V0):
-        raise InputError("the face has an empty parameter range %r" % ((U0, U1, V0, V1),))
-    inside, is_rect, how = _inside_function(face)
-    if is_rect:
-        base = (U0, U1, V0, V1)
-        method = "untrimmed face: parameter range"
-    else:
-        du, dv = (U1 - U0) / RASTER, (V1 - V0) / RASTER
-        uc, vc = grid_parameters((U0 + du / 2, U1 - du / 2, V0 + dv / 2, V1 - dv / 2), RASTER - 1)
-        raster = inside(uc, vc).reshape(RASTER, RASTER)
-        box = largest_rectangle(raster)
-        if box is None or box[1] - box[0] < 2 or box[3] - box[2] < 2:
-            raise InputError("no parameter rectangle found inside the face's trimmed domain")
-        i0, i1, j0, j1 = box
-        # raster cells i0..i1 cover [U0 + i0 du, U0 + (i1+1) du]; drop one cell each side
-        base = (U0 + (i0 + 1) * du, U0 + i1 * du, V0 + (j0 + 1) * dv, V0 + j1 * dv)
-        method = "trimmed face: largest rectangle inside the %s" % how
-    u0, u1, v0, v1 = base
-    rect = (u0 + inset * (u1 - u0), u1 - inset * (u1 - u0), v0 + inset * (v1 - v0), v1 - inset * (v1 - v0))
-    if not is_rect:
-        lines = None if creases is None else creases(rect)
-        for n in check_levels:
-            u, v = grid_parameters(rect, n, lines)
-            if not inside(u, v).all():
-                raise InputError("the inset rectangle %r of a trimmed face leaves the trimmed domain "
-                                 "at the %dx%d level" % (rect, n, n))
-    return {"rect": rect, "base_rect": base, "trimmed": not is_rect, "method": method,
-            "inset": float(inset)}
+from .sameface_grid import (DEFAULT_INSET, INTERIOR_RINGS, NEGLIGIBLE_H, NEGLIGIBLE_K,  # noqa: F401
+                            PATTERNS, RASTER, SAMEFACE_LEVELS, grid_lines, grid_parameters, grid_triangles,
+                            h_sign_alignment, mesh_edges, p1_mass_matrix, panel_split, relative_l2_error,
+                            strict_interior, triangle_areas)
+from .sameface_region import _inside_function, abs_K_integral, inset_rectangle, largest_rectangle  # noqa: F401
 
 
 # ---------------------------------------------------------------------------------------------
@@ -377,11 +121,15 @@ def compare_on_grid(evaluator, rect, n, pattern, curvature=None, align_creases=T
     pattern, counts, eps_H, eps_K (fractions, eq:sameface_error), the H sign used, and
     median / 95th-percentile absolute errors of H (1/length) and K (1/length^2) on the
     retained vertices. H_reference_negligible / K_reference_negligible flag a quasi-zero
-    reference (RMS |H| d or |K| d^2 <= 1e-4, d the grid's diagonal). creases: the lines
-    placed on grid rows; eps_H_smooth, eps_K_smooth: the same errors without the vertices
-    whose two-ring reaches a knot line below C2 (c2_breaks) as well.
+    reference (RMS |H| d or |K| d^2 <= 1e-4, d the grid's diagonal); its relative error is
+    then null. creases: the lines placed on grid rows; eps_H_smooth, eps_K_smooth: the same
+    errors without the vertices whose two-ring reaches a knot line below C2 (c2_breaks) as
+    well. masked: why vertices left the mask; the measures of :mod:`.sameface_diagnosis`;
+    reasons: {key: why its value is null} for every null value.
+    Raises InputError when the creases outnumber the panels.
     """
     from ..brep.differential import surface_differentials
+    from .sameface_diagnosis import close_pair_lines, knot_structure, level_measures
     curvature = _curvature_function(curvature)
     c_u, c_v = crease_lines(evaluator, rect) if align_creases else (np.empty(0), np.empty(0))
     ul, iu = grid_lines(rect[0], rect[1], n, c_u)
@@ -397,30 +145,82 @@ def compare_on_grid(evaluator, rect, n, pattern, curvature=None, align_creases=T
     T = grid_triangles(n, pattern, flip=evaluator.orientation_sign < 0)
     rec = curvature(V, T)
     H_h, K_h = _field(rec, "H"), _field(rec, "K")
-    mask = strict_interior(T, len(V), seeds=seeds.ravel()) & ref.regular
-    mask &= np.isfinite(ref.H) & np.isfinite(ref.K) & np.isfinite(H_h) & np.isfinite(K_h)
+    interior = strict_interior(T, len(V), seeds=seeds.ravel())
+    finite = np.isfinite(ref.H) & np.isfinite(ref.K) & np.isfinite(H_h) & np.isfinite(K_h)
+    mask = interior & ref.regular & finite
+    masked = {"boundary_or_crease_rings": int((~interior).sum()),
+              "irregular_brep_points": int((interior & ~ref.regular).sum()),
+              "non_finite_curvature": int((interior & ref.regular & ~finite).sum())}
     M = p1_mass_matrix(V, T)
     sign = h_sign_alignment(H_h, ref.H, M, mask)
     H_h = sign * H_h
-    eps_H = relative_l2_error(H_h, ref.H, M, mask)
-    eps_K = relative_l2_error(K_h, ref.K, M, mask)
-    med_H, p95_H = _abs_stats((H_h - ref.H)[mask])
-    med_K, p95_K = _abs_stats((K_h - ref.K)[mask])
     u_br, v_br = evaluator.continuity_breaks(min_continuity=2, urange=rect[:2], vrange=rect[2:])
     size = float(np.linalg.norm(V.max(axis=0) - V.min(axis=0)))
     rms_H, rms_K = _rms(ref.H, M, mask), _rms(ref.K, M, mask)
     smooth = mask & ~break_rings(ul, vl, (u_br, v_br))
-    return {"panels": int(n), "pattern": pattern, "n_vertices": int(len(V)), "n_triangles": int(len(T)),
-            "n_retained": int(mask.sum()), "eps_H": eps_H, "eps_K": eps_K, "H_sign": int(sign),
-            "median_abs_error_H": med_H, "p95_abs_error_H": p95_H,
-            "median_abs_error_K": med_K, "p95_abs_error_K": p95_K,
-            "rms_H_ref": rms_H, "rms_K_ref": rms_K,
-            "H_reference_negligible": bool(rms_H is None or rms_H * size <= NEGLIGIBLE_H),
-            "K_reference_negligible": bool(rms_K is None or rms_K * size ** 2 <= NEGLIGIBLE_K),
-            "creases": {"u": c_u, "v": c_v}, "c2_breaks": {"u": u_br, "v": v_br},
-            "n_retained_smooth": int(smooth.sum()),
-            "eps_H_smooth": relative_l2_error(H_h, ref.H, M, smooth) if smooth.any() else None,
-            "eps_K_smooth": relative_l2_error(K_h, ref.K, M, smooth) if smooth.any() else None}
+    out = {"panels": int(n), "pattern": pattern, "n_vertices": int(len(V)), "n_triangles": int(len(T)),
+           "n_retained": int(mask.sum()), "masked": masked, "H_sign": int(sign),
+           "rms_H_ref": rms_H, "rms_K_ref": rms_K,
+           "H_reference_negligible": bool(rms_H is None or rms_H * size <= NEGLIGIBLE_H),
+           "K_reference_negligible": bool(rms_K is None or rms_K * size ** 2 <= NEGLIGIBLE_K),
+           "creases": {"u": c_u, "v": c_v}, "c2_breaks": {"u": u_br, "v": v_br},
+           "n_retained_smooth": int(smooth.sum())}
+    reasons = {}
+    if not mask.any():
+        why = ("every vertex masked: %d of %d within two edges of the boundary or a crease row, %d at "
+               "irregular BRep points, %d with non-finite curvature"
+               % (masked["boundary_or_crease_rings"], len(V), masked["irregular_brep_points"],
+                  masked["non_finite_curvature"]))
+    for q, x_h, x_ref, rms, scale in (("H", H_h, ref.H, rms_H, size), ("K", K_h, ref.K, rms_K, size ** 2)):
+        d = x_h - x_ref
+        med, p95 = _abs_stats(d[mask])
+        out["median_abs_error_" + q], out["p95_abs_error_" + q] = med, p95
+        if not mask.any():
+            for key in ("eps_" + q, "eps_%s_smooth" % q, "median_abs_error_" + q, "p95_abs_error_" + q,
+                        "rms_%s_ref" % q):
+                reasons[key] = why
+            out["eps_" + q] = out["eps_%s_smooth" % q] = None
+            continue
+        if rms == 0.0:
+            zero = "the BRep %s is identically zero on the %d retained vertices" % (q, int(mask.sum()))
+        elif out["%s_reference_negligible" % q]:
+            zero = ("the BRep %s reference is quasi-zero: RMS |%s| d%s = %.3g <= %g (d the grid diagonal), "
+                    "so its relative error measures nothing; the absolute errors are kept"
+                    % (q, q, "" if q == "H" else "^2", rms * scale, NEGLIGIBLE_H if q == "H" else NEGLIGIBLE_K))
+        else:
+            zero = None
+        if zero:
+            out["eps_" + q] = out["eps_%s_smooth" % q] = None
+            reasons["eps_" + q] = reasons["eps_%s_smooth" % q] = zero
+            continue
+        out["eps_" + q] = relative_l2_error(x_h, x_ref, M, mask)
+        out["eps_%s_smooth" % q] = relative_l2_error(x_h, x_ref, M, smooth) if smooth.any() else None
+        if out["eps_%s_smooth" % q] is None:
+            reasons["eps_%s_smooth" % q] = (
+                "no retained vertex is outside the two-rings of the %d knot line(s) below C2"
+                % (len(u_br) + len(v_br)) if not smooth.any() else
+                "the BRep %s is identically zero away from the knot lines below C2" % q)
+    knots = knot_structure(evaluator, rect, n)
+    band = break_rings(ul, vl, (np.r_[u_br, close_pair_lines(knots)[0]], np.r_[v_br, close_pair_lines(knots)[1]]))
+    w = np.asarray(M.sum(axis=1)).ravel()
+    meas = level_measures(V, n, ref.k1, ref.k2, H_h - ref.H, K_h - ref.K, w, mask, band, ref.H, ref.K)
+    for key, val in meas.items():
+        if val is None:
+            reasons[key] = why
+        elif key in ("worst_1pct", "error_share", "variation"):
+            for q in ("H", "K"):
+                if out["eps_" + q] is None:
+                    val[q] = None
+                    val.setdefault("reasons", {})[q] = "eps_%s is null: %s" % (q, reasons["eps_" + q])
+                elif key == "worst_1pct" and val[q] is None:
+                    val.setdefault("reasons", {})[q] = "the %s error is zero on every retained vertex" % q
+                elif key in ("error_share", "variation") and any(x is None for x in val[q].values()):
+                    val[q] = None
+                    val.setdefault("reasons", {})[q] = "the %s error is zero on every retained vertex" % q
+    out.update(meas)
+    out["knots"] = knots
+    out["reasons"] = reasons
+    return out
 
 
 def _rms(x, M, mask):
@@ -432,51 +232,101 @@ def _rms(x, M, mask):
 
 
 def error_ratios(levels):
-    """Finest-to-coarsest error ratios eps(N_max) / eps(N_min) per pattern and quantity."""
+    """Finest-to-coarsest error ratios eps(N_max) / eps(N_min) per pattern and quantity, with
+    reasons for the null ones (computed levels only)."""
     out = []
+    levels = [r for r in levels if not r.get("unavailable")]
     for pattern in sorted({r["pattern"] for r in levels}, key=PATTERNS.index):
         recs = sorted((r for r in levels if r["pattern"] == pattern), key=lambda r: r["panels"])
         if len(recs) < 2:
             continue
         lo, hi = recs[0], recs[-1]
-        row = {"pattern": pattern, "fine": hi["panels"], "coarse": lo["panels"]}
+        row = {"pattern": pattern, "fine": hi["panels"], "coarse": lo["panels"], "reasons": {}}
         for q in ("eps_H", "eps_K"):
             a, b = hi[q], lo[q]
             row[q + "_ratio"] = (a / b) if (a is not None and b) else None
+            if row[q + "_ratio"] is None:
+                bad = hi if a is None else lo
+                row["reasons"][q + "_ratio"] = (
+                    "%s is null at %dx%d: %s" % (q, bad["panels"], bad["panels"], bad["reasons"][q])
+                    if bad[q] is None else "%s is zero at %dx%d" % (q, lo["panels"], lo["panels"]))
         out.append(row)
     return out
+
+
+def unavailable_level(n, pattern, reason):
+    """The record of a level that cannot be compared: every value null with its reason."""
+    keys = ("eps_H", "eps_K", "eps_H_smooth", "eps_K_smooth", "n_retained")
+    return dict({"panels": int(n), "pattern": pattern, "unavailable": reason,
+                 "reasons": dict.fromkeys(keys, reason)}, **dict.fromkeys(keys))
 
 
 def sameface_face(face, levels=SAMEFACE_LEVELS, patterns=PATTERNS, inset=DEFAULT_INSET, curvature=None,
                   progress=None, number=None, align_creases=True):
     """Same-face study of one Part.Face: one record per level and pattern (see module docstring).
 
-    Returns dict(face, surface_kind, area, rect..., creases {u, v}, levels [records of
-    compare_on_grid], ratios [error_ratios], finer_below_coarsest {eps_H, eps_K}).
-    Raises InputError when a level has fewer panels than the crease-cut pieces.
+    Returns dict(face, surface_kind, area, abs_K_integral (midpoint estimate over the trimmed
+    domain, :func:`abs_K_integral`), rect..., creases {u, v}, levels [records of
+    compare_on_grid, or of :func:`unavailable_level` for a level whose panels are fewer
+    than the crease-cut pieces], ratios [error_ratios], finer_below_coarsest {eps_H, eps_K},
+    diagnosis (:func:`.sameface_diagnosis.face_diagnosis`), reasons).
+    A face with no comparable level is returned with a 'skipped' reason.
     """
     from ..brep.surface_eval import SurfaceEvaluator
+    from .sameface_diagnosis import face_diagnosis, knot_structure
     progress = progress or null_progress
     levels = sorted(int(n) for n in levels)
     ev = SurfaceEvaluator.for_face(face)
+    area, why_area = face_area(face)
+    out = {"face": number, "surface_kind": ev.kind, "area": area,
+           "orientation_sign": ev.orientation_sign, "reasons": {}}
+    if area is None:
+        out["reasons"]["area"] = why_area
+    inside = _inside_function(face)
+    out["abs_K_integral"] = abs_K_integral(face, ev, inside)
+    if out["abs_K_integral"] is None:
+        out["reasons"]["abs_K_integral"] = "no regular midpoint of the raster lies inside the trimmed domain"
     creases = (lambda rect: crease_lines(ev, rect)) if align_creases else None
-    region = inset_rectangle(face, inset, check_levels=levels, creases=creases)
+    try:
+        region = inset_rectangle(face, inset, check_levels=levels, creases=creases, inside=inside)
+        if not region["checked_levels"]:
+            raise InputError("no level can be compared: %s"
+                             % "; ".join(sorted(set(region["level_reasons"].values()))))
+    except InputError as exc:
+        out.update({"skipped": " ".join(str(exc).split()), "levels": []})
+        return out
     c_u, c_v = creases(region["rect"]) if align_creases else (np.empty(0), np.empty(0))
     records = []
     steps = len(levels) * len(patterns)
     for k, (n, pattern) in enumerate((n, p) for n in levels for p in patterns):
         progress(k / steps, "face %s: %dx%d %s" % (number, n, n, pattern))
+        if n not in region["checked_levels"]:
+            records.append(unavailable_level(n, pattern, region["level_reasons"][n]))
+            continue
         records.append(compare_on_grid(ev, region["rect"], n, pattern, curvature, align_creases))
+    computed = [r for r in records if not r.get("unavailable")]
     ratios = error_ratios(records)
     below = {}
     for q in ("eps_H", "eps_K"):
         vals = [r[q + "_ratio"] for r in ratios]
         below[q] = None if not vals or any(x is None for x in vals) else bool(all(x < 1.0 for x in vals))
-    out = {"face": number, "surface_kind": ev.kind, "area": float(face.Area),
-           "orientation_sign": ev.orientation_sign}
+        if below[q] is None:
+            out["reasons"]["finer_below_coarsest." + q] = (
+                "fewer than two levels compared" if not vals else
+                "; ".join("%s: %s" % (r["pattern"], r["reasons"][q + "_ratio"]) for r in ratios
+                          if r[q + "_ratio"] is None))
+    if any(v is None for v in below.values()):
+        below["reasons"] = {q: out["reasons"].pop("finer_below_coarsest." + q) for q in ("eps_H", "eps_K")
+                            if below[q] is None}
+    fine_n, coarse_n = max(r["panels"] for r in computed), min(r["panels"] for r in computed)
+    finest = [r for r in computed if r["panels"] == fine_n]
+    coarsest = [r for r in computed if r["panels"] == coarse_n]
     out.update(region)
     out.update({"creases": {"u": c_u, "v": c_v}, "levels": records, "ratios": ratios,
-                "finer_below_coarsest": below})
+                "finer_below_coarsest": below,
+                "diagnosis": face_diagnosis(finest, coarsest, knot_structure(ev, region["rect"], fine_n))})
+    for key in ("checked_levels", "level_reasons"):
+        out.pop(key)
     return out
 
 
@@ -485,14 +335,18 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
     """Same-face BRep-to-mesh recovery study of a BRep (path, Part.Shape or FreeCAD object).
 
     faces: 1-based face numbers (None: all faces). A face whose study cannot be run (no
-    rectangle inside its trimmed domain, zero reference curvature) is listed with a
-    'skipped' reason. abs_K_share: optional {face: share of the hull's integral of |K|}
-    copied into the face records (e.g. from :func:`abs_K_shares`). align_creases: C0 knot
-    lines on grid lines, their rows masked like the boundary (module docstring; False: the
-    uniform grid). Returns a JSON-safe dict: study, input, settings, faces
-    [sameface_face records], table (flat rows).
+    rectangle inside its trimmed domain, creases outnumbering the panels of every level) is
+    listed with a 'skipped' reason. abs_K_share: optional {face: share of the hull's
+    integral of |K|} (e.g. from :func:`abs_K_shares`); without it the shares are the
+    faces' midpoint estimates (:func:`abs_K_integral`). align_creases: C0 knot lines on grid
+    lines, their rows masked like the boundary (module docstring; False: the uniform grid).
+    Returns a JSON-safe dict: study, input, settings, faces [sameface_face records],
+    headline_face (largest area), largest_K_face (largest |K| share), table (flat rows);
+    every null value of a record has its reason in the record's ``reasons``.
     """
     from ..brep.loading import load_brep
+    from .sameface_diagnosis import diagnosis_settings
+    from .sameface_headline import face_shares, headline_face, largest_K_face
     progress = progress or null_progress
     patterns = tuple(patterns)
     for p in patterns:
@@ -511,25 +365,64 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
         sub = _sub_progress(progress, k / nf, (k + 1) / nf)
         try:
             rec = sameface_face(face, levels, patterns, inset, curvature, sub, number, align_creases)
-        except InputError as exc:
-            rec = {"face": number, "skipped": " ".join(str(exc).split()), "levels": []}
-        if abs_K_share is not None and number in abs_K_share:
-            rec["abs_K_share"] = abs_K_share[number]
+        except (InputError,) + occ_errors() as exc:
+            area, why_area = face_area(face)
+            why = " ".join(str(exc).split()) or type(exc).__name__
+            if not isinstance(exc, InputError):
+                why = "OpenCascade failed on the face: %s" % why
+            rec = {"face": number, "skipped": why, "levels": [], "area": area, "abs_K_integral": None,
+                   "reasons": {"abs_K_integral": "the face could not be set up: %s" % why}}
+            if area is None:
+                rec["reasons"]["area"] = why_area
         out_faces.append(rec)
+    face_shares(out_faces, abs_K_share)
     progress(1.0, "same-face study done")
-    table = [dict(face=f["face"], **{k: r[k] for k in ("panels", "pattern", "eps_H", "eps_K",
-                                                      "n_retained")})
-             for f in out_faces for r in f["levels"]]
-    doc = {"study": "sameface", "input": brep.info, "units": brep.units,
+    table = []
+    for f in out_faces:
+        for r in f["levels"]:
+            row = dict(face=f["face"], **{k: r[k] for k in ("panels", "pattern", "eps_H", "eps_K", "n_retained")})
+            why = {k: r["reasons"][k] for k in ("eps_H", "eps_K", "n_retained") if row[k] is None}
+            if why:
+                row["reasons"] = why
+            table.append(row)
+    info = dict(brep.info)
+    missing = [k for k, v in info.items() if v is None]
+    if missing:
+        why = ("the input is a shape in memory, not a file" if info.get("path") is None
+               else "not recorded by the BRep reader")
+        info["reasons"] = dict.fromkeys(missing, why)
+    doc = {"study": "sameface", "input": info, "units": brep.units,
            "settings": {"levels": levels, "patterns": list(patterns), "inset": float(inset),
                         "interior_rings": INTERIOR_RINGS, "align_creases": bool(align_creases),
                         "mask": ("two-ring strict interior of the boundary%s with finite, regular H and K "
                                  "of both realizations" % (" and of the crease rows (C0 knot lines placed on "
                                                            "grid lines)" if align_creases else "")),
                         "norm": "consistent P1 mass matrix on the physical triangles (eq:sameface_error)",
-                        "H_sign": "one global sign of the recovered H by M-weighted correlation with the BRep H"},
-           "faces": out_faces, "table": table}
+                        "H_sign": "one global sign of the recovered H by M-weighted correlation with the BRep H",
+                        "faces_selected": None if faces is None else list(faces),
+                        "diagnosis": diagnosis_settings()},
+           "faces": out_faces, "headline_face": headline_face(out_faces, faces is not None),
+           "largest_K_face": largest_K_face(out_faces), "table": table}
+    if faces is None:
+        doc["settings"]["reasons"] = {"faces_selected": "no --faces: every face of the shape"}
     return json_safe(doc)
+
+
+def occ_errors():
+    """The exception types FreeCAD raises for a failing OpenCascade operation on a damaged face."""
+    from ..freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    import Part
+    return tuple({getattr(FreeCAD.Base, "FreeCADError", RuntimeError), getattr(Part, "OCCError", RuntimeError)})
+
+
+def face_area(face):
+    """(area, None) of a Part.Face, or (None, reason) when OpenCascade cannot compute it."""
+    try:
+        return float(face.Area), None
+    except occ_errors() as exc:
+        return None, "OpenCascade cannot compute the face's area (%s)" % (" ".join(str(exc).split()) or
+                                                                         type(exc).__name__)
 
 
 def abs_K_shares(assessment):
