@@ -286,9 +286,9 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
 def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tessellates(tmp_path, monkeypatch):
     """A face assessed alone is set up while the L_ref tessellation runs, and then the field
     at the nodes of the first two quadtree levels of its patch groups is evaluated
-    (quadrature.NodePrefetch) until L_ref arrives; the integration takes those values over:
+    (cubature.NodePrefetch) until L_ref arrives; the integration takes those values over:
     the same integrals, to the bit, as the file read here."""
-    from hullprod_wb.brep import backend, quadrature
+    from hullprod_wb.brep import backend, cubature
     from hullprod_wb.brep.plain_records import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, _ = _part()
@@ -296,14 +296,14 @@ def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tesse
     wavy_bspline_face(20, 15).exportStep(path)  # 300 patches: two patch groups
     here = backend.assess_brep(path, lref=4.0, jobs=2, with_fields=False)
     steps = []
-    step = quadrature.NodePrefetch.step
+    step = cubature.NodePrefetch.step
 
     def counted(self):
         steps.append(len(self.values))
         return step(self)
-    monkeypatch.setattr(quadrature.NodePrefetch, "step", counted)
+    monkeypatch.setattr(cubature.NodePrefetch, "step", counted)
     # two groups of 150 patches: each group's patches in one step, their 600 children in
-    # three (quadrature.PREFETCH_CELLS)
+    # three (cubature.settings.PREFETCH_CELLS)
     for polls, levels in (([False] * 20, [0, 0, 1, 1, 1, 1, 1, 1]), ([False, False, False, True], [0, 0])):
         steps.clear()
         poll = iter(polls)

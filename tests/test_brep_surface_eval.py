@@ -459,7 +459,7 @@ def test_face_field_grid_equals_pointwise(fc):
     trimmed B-spline face's grids, and the cubature's values at grid cells equal those of the
     same field without a grid method."""
     from hullprod_wb.brep.face_field import FaceField
-    from hullprod_wb.brep.quadrature import _Field
+    from hullprod_wb.brep.cubature.cells import _Field
     _, Part = fc
     ff = FaceField(make_bspline(fc, rational=True).toShape())
     rng = np.random.default_rng(2)

@@ -1,5 +1,5 @@
 """Refinement driven by the error estimates within a point budget, one error budget for the
-whole shape, and the nested-neighbourhood audit's decisions (brep.quadrature.integrate with
+whole shape, and the nested-neighbourhood audit's decisions (brep.cubature.integrate with
 depth_limit, brep.backend metric rules, brep.singular.audit_point and probe_side)."""
 import math
 from types import SimpleNamespace
@@ -9,7 +9,7 @@ import pytest
 
 from hullprod_wb.brep import singular
 from hullprod_wb.brep.backend import _global_converged, face_point_budgets, quadrature_options
-from hullprod_wb.brep.quadrature import QUANTITIES, integrate
+from hullprod_wb.brep.cubature import QUANTITIES, integrate
 from hullprod_wb.brep.trimmed_domain import TrimmedDomain
 from hullprod_wb.core.errors import InputError
 

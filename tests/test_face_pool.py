@@ -140,7 +140,7 @@ def test_map_forked_same_results_here_or_in_children():
 @needs_fork
 def test_a_face_assessed_alone_is_integrated_in_patch_groups():
     from hullprod_wb import assess
-    from hullprod_wb.brep.quadrature import GROUP_MIN_PATCHES
+    from hullprod_wb.brep.cubature import GROUP_MIN_PATCHES
     from hullprod_wb.freecad_env import import_freecad
     import_freecad()
     import Part

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import needs_freecad, shared_hull
-from hullprod_wb.brep.quadrature import GROUP_MIN_PATCHES, GROUPS, QUANTITIES, integrate, patch_groups
+from hullprod_wb.brep.cubature import GROUP_MIN_PATCHES, GROUPS, QUANTITIES, integrate, patch_groups
 from hullprod_wb.brep.trimmed_domain import (ConicArc2D, FunctionCurve2D, NurbsCurve2D,
                                              TrimmedDomain, solve_bracketed)
 from hullprod_wb.core.errors import InputError
@@ -232,7 +232,7 @@ def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
     degree-9 series). Without the cuts, and from the whole square as the first cell, the
     straight case's flat region, between the first level's lines, is missed altogether
     (A_flat 0)."""
-    import hullprod_wb.brep.quadrature as quadrature
+    from hullprod_wb.brep import cubature
     tH, tK = 0.05, 0.02
     if curved:
         g = lambda u: 0.5 + 0.1 * np.sin(2 * np.pi * u)
@@ -255,7 +255,7 @@ def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
     assert n_corners == 4 and exact["A_flat"] > 1e-3
     f = field_of(J, lambda u, v: v - g(u), H)
     d = TrimmedDomain.rectangle(0, 1, 0, 1)
-    corner_cuts = quadrature._Integrator._corner_cuts
+    corner_cuts = cubature.driver._Integrator._corner_cuts
     cuts = []
 
     def record(self, *args):
@@ -263,15 +263,15 @@ def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
         cuts.append(out[0].size)
         return out
 
-    monkeypatch.setattr(quadrature._Integrator, "_corner_cuts", record)
+    monkeypatch.setattr(cubature.driver._Integrator, "_corner_cuts", record)
     r = integrate(d, f, tH, tK)
     assert sum(cuts) >= 4 and r.all_converged
     for q, v in exact.items():
         assert r.values[q] == pytest.approx(v, abs=1e-10), q
         assert abs(r.values[q] - v) <= r.errors[q], q
     if not curved:
-        monkeypatch.setattr(quadrature._Integrator, "_corner_cuts", lambda self, pc, *a: (np.empty(0, int), np.empty(0)))
-        monkeypatch.setattr(quadrature, "MIN_INITIAL_CELLS", 1)
+        monkeypatch.setattr(cubature.driver._Integrator, "_corner_cuts", lambda self, pc, *a: (np.empty(0, int), np.empty(0)))
+        monkeypatch.setattr(cubature.cells, "MIN_INITIAL_CELLS", 1)
         s = integrate(d, f, tH, tK)
         assert s.values["A_flat"] == 0.0
 
@@ -284,7 +284,7 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
     piece through it cut (_Integrator._island_cuts); the next level's lines then meet the
     island. Class areas within 1e-9 of the closed form and within their error estimates
     (before: the island's class area 0, error estimate 0)."""
-    import hullprod_wb.brep.quadrature as quadrature
+    from hullprod_wb.brep import cubature
     c = np.array([0.33, 0.61])
     r2 = lambda u, v: (u - c[0]) ** 2 + (v - c[1]) ** 2
     if case == "band in elliptic":
@@ -299,7 +299,7 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
         exact = {"A_elliptic": inner, "A_saddle": outer} if sign > 0 else {"A_saddle": inner, "A_elliptic": outer}
         exact["A_single"] = 1 - inner - outer
     f = field_of(lambda u, v: 1.0, K)
-    island_cuts = quadrature._Integrator._island_cuts
+    island_cuts = cubature.driver._Integrator._island_cuts
     cuts = []
 
     def record(self, pc, F):
@@ -307,11 +307,11 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
         cuts.append(out[0].size)
         return out
 
-    monkeypatch.setattr(quadrature._Integrator, "_island_cuts", record)
+    monkeypatch.setattr(cubature.driver._Integrator, "_island_cuts", record)
     # from the whole square as the first cell, the island lies between the lines of a mixed
     # cell and is found by the search; from the default first cells as well (lines or search)
-    for first_cells in (1, quadrature.MIN_INITIAL_CELLS):
-        monkeypatch.setattr(quadrature, "MIN_INITIAL_CELLS", first_cells)
+    for first_cells in (1, cubature.cells.MIN_INITIAL_CELLS):
+        monkeypatch.setattr(cubature.cells, "MIN_INITIAL_CELLS", first_cells)
         cuts.clear()
         r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, tK)
         assert sum(cuts) >= (1 if first_cells == 1 else 0)
@@ -345,8 +345,8 @@ def test_few_patches_start_from_halved_cells(monkeypatch):
     deepest level stays max_depth, and the refinement sequence repeats the first cells'
     estimate for them. The integrals agree with those from the whole patch as the first
     cell to within the error estimates, here with fewer field points."""
-    import hullprod_wb.brep.quadrature as quadrature
-    assert quadrature.MIN_INITIAL_CELLS == 16
+    from hullprod_wb.brep import cubature
+    assert cubature.cells.MIN_INITIAL_CELLS == 16
     c, R = np.array([0.53, 0.47]), 0.3
     f = field_of(lambda u, v: 1.0 + 0.2 * u * v, lambda u, v: (u - c[0]) ** 2 + (v - c[1]) ** 2 - R * R,
                  lambda u, v: 0.5 + 0.0 * u)
@@ -357,7 +357,7 @@ def test_few_patches_start_from_halved_cells(monkeypatch):
         assert len(r.history) == r.depth_reached + 1
         assert all(h == r.history[0] for h in r.history[:level + 1])
     new = integrate(d, f, TAU_H, TAU_K)
-    monkeypatch.setattr(quadrature, "MIN_INITIAL_CELLS", 1)
+    monkeypatch.setattr(cubature.cells, "MIN_INITIAL_CELLS", 1)
     old = integrate(d, f, TAU_H, TAU_K)
     assert old.n_initial_cells == 1 and new.all_converged and old.all_converged
     for q in QUANTITIES:
@@ -675,13 +675,13 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
     sigma (_Integrator._turn_cells); the class areas keep the closed form to 1e-9 with
     fewer line evaluations than lines that are not turned (those, nearly parallel to the
     level curves, are 2e-8 off here: within the tolerance, 1.1e-6 for A_single)."""
-    import hullprod_wb.brep.quadrature as quadrature
+    from hullprod_wb.brep import cubature
     f = field_of(lambda u, v: 1 + 0.5 * u * v,
                  lambda u, v: u - 0.3 - 0.1 * np.sin(2 * np.pi * v))
     d = TrimmedDomain.rectangle(0, 1, 0, 1)
     turned, lines = [], []
-    turn = quadrature._Integrator._turn_cells
-    values = quadrature._Integrator._line_values
+    turn = cubature.driver._Integrator._turn_cells
+    values = cubature.driver._Integrator._line_values
 
     def record_turn(self, cells, interp):
         out = turn(self, cells, interp)
@@ -692,8 +692,8 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
         lines.append(pid.size - n_counted)  # the lines integrated
         return values(self, cell, pid, sig, t0, t1, n_counted)
 
-    monkeypatch.setattr(quadrature._Integrator, "_turn_cells", record_turn)
-    monkeypatch.setattr(quadrature._Integrator, "_line_values", record_lines)
+    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", record_turn)
+    monkeypatch.setattr(cubature.driver._Integrator, "_line_values", record_lines)
     r = integrate(d, f, TAU_H, TAU_K)
     n_turned, n_lines = sum(turned), sum(lines)
 
@@ -710,7 +710,7 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
     turned.clear()
     lines.clear()
     # no cell turned: the candidates' interpolants hidden from _turn_cells
-    monkeypatch.setattr(quadrature._Integrator, "_turn_cells", lambda self, cells, interp: (
+    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", lambda self, cells, interp: (
         turn(self, cells, {**interp, "use": np.zeros_like(interp["use"])})[0], interp))
     s = integrate(d, f, TAU_H, TAU_K)
     assert sum(turned) == 0 and s.all_converged
@@ -740,10 +740,10 @@ def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch
     the band's halves cancel on every line, the worst case); resolving K = 0 (share 0)
     gives the K integrals' closed form to 1e-10, refining more crossings. Class areas: 1e-9
     in both."""
-    import hullprod_wb.brep.quadrature as quadrature
+    from hullprod_wb.brep import cubature
     f, exact = _sign_change_field(10.0)
     d = TrimmedDomain.rectangle(0, 1, 0, 1)
-    crossings = quadrature._Integrator._crossings
+    crossings = cubature.driver._Integrator._crossings
     found = []  # refined crossings on lines
 
     def record(self, evalf, refine=True):
@@ -752,12 +752,12 @@ def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch
         found.append(int(np.count_nonzero(refined[out[0]])))
         return out
 
-    monkeypatch.setattr(quadrature._Integrator, "_crossings", record)
+    monkeypatch.setattr(cubature.driver._Integrator, "_crossings", record)
     r = integrate(d, f, TAU_H, TAU_K)
     n_bounded = sum(found)
     found.clear()
     assert not r.zero_resolved and r.zero_charge > 0.0
-    assert r.zero_charge <= quadrature.ZERO_CHARGE_SHARE * r.tolerances["int_abs_K"]
+    assert r.zero_charge <= cubature.driver.ZERO_CHARGE_SHARE * r.tolerances["int_abs_K"]
     assert r.all_converged
     for q in ("int_abs_K", "int_K_plus", "int_K_minus"):
         # the bound holds: the error of |K| is at most the charge, of K+ and K- half of it
@@ -766,7 +766,7 @@ def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch
         assert r.values[q] == pytest.approx(exact[q], rel=1e-7), q
     for q in ("A_single", "A_elliptic", "A_saddle"):
         assert r.values[q] == pytest.approx(exact[q], abs=1e-9), q
-    monkeypatch.setattr(quadrature, "ZERO_CHARGE_SHARE", 0.0)
+    monkeypatch.setattr(cubature.driver, "ZERO_CHARGE_SHARE", 0.0)
     s = integrate(d, f, TAU_H, TAU_K)
     assert s.zero_resolved and s.zero_charge == 0.0 and s.all_converged
     for q, v in exact.items():
@@ -792,7 +792,7 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     known (NodePrefetch: none, the patches, the patches and their children) are taken over by
     the integration: the same values and errors to the bit, and the integration itself calls
     the field only for the levels not prefetched. A prefetch of another order is refused."""
-    from hullprod_wb.brep.quadrature import NodePrefetch
+    from hullprod_wb.brep.cubature import NodePrefetch
     calls = []
 
     def f(u, v):
@@ -802,8 +802,8 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     d = TrimmedDomain.disc((0.0, 0.0), 1.0)
     plain = integrate(d, f, TAU_H, TAU_K)
     own = []
-    import hullprod_wb.brep.quadrature as quadrature
-    monkeypatch.setattr(quadrature, "PREFETCH_CELLS", 3)  # the first cells, then their children
+    from hullprod_wb.brep import cubature
+    monkeypatch.setattr(cubature.cells, "PREFETCH_CELLS", 3)  # the first cells, then their children
     n0 = NodePrefetch(d, f, 5).cells[0]["pid"].size
     s0, s1 = -(-n0 // 3), -(-4 * n0 // 3)  # steps of each level
     for levels, steps in ((0, 0), (1, s0), (2, s0 + s1)):
@@ -830,13 +830,13 @@ def test_mixed_cells_on_interpolants_agree_with_field_lines(monkeypatch):
     """The lines of mixed cells run on a local tensor interpolant of the cell's samples when
     it is accurate enough; forcing the field everywhere (share 0) gives the same integrals
     to well within the tolerance, with several times more field evaluations."""
-    import hullprod_wb.brep.quadrature as quadrature
+    from hullprod_wb.brep import cubature
     c, R = np.array([0.53, 0.47]), 0.3
     f = field_of(lambda u, v: 1.0 + 0.2 * u * v, lambda u, v: (u - c[0]) ** 2 + (v - c[1]) ** 2 - R * R,
                  lambda u, v: 0.5 + 0.0 * u)
     d = TrimmedDomain.rectangle(0, 1, 0, 1)
     fast = integrate(d, f, TAU_H, TAU_K)
-    monkeypatch.setattr(quadrature, "INTERPOLANT_SHARE", 0.0)
+    monkeypatch.setattr(cubature.lines, "INTERPOLANT_SHARE", 0.0)
     slow = integrate(d, f, TAU_H, TAU_K)
     for q in QUANTITIES:
         # both converged at rtol 1e-4; their difference is far below it
@@ -846,7 +846,7 @@ def test_mixed_cells_on_interpolants_agree_with_field_lines(monkeypatch):
 
 
 def test_patch_rule_bounds_its_error():
-    from hullprod_wb.brep.quadrature import patch_rule
+    from hullprod_wb.brep.cubature import patch_rule
     d = TrimmedDomain.disc((0.0, 0.0), 1.0)
     f = field_of(lambda u, v: np.exp(u) * (1 + v * v), lambda u, v: 1.0 + 0.0 * u)
     # int over the unit disc of e^u (1 + v^2), by scipy in polar coordinates
@@ -866,7 +866,7 @@ def test_patch_rule_bounds_its_error():
     with pytest.raises(InputError):
         patch_rule(d, f, 2)
     # the area alone (the backend's area cross-check): the same rule, J evaluated only
-    from hullprod_wb.brep.quadrature import patch_area
+    from hullprod_wb.brep.cubature import patch_area
     for order, u_breaks in ((5, ()), (8, cuts)):
         vals, bound = patch_rule(d, f, order, u_breaks)
         area, area_bound = patch_area(d, f, order, u_breaks)
@@ -1070,7 +1070,7 @@ def test_grid_evaluated_cells_give_the_pointwise_values(fc):
     fixed area rule give the values of the same field evaluated point by point everywhere."""
     from hullprod_wb.brep.face_field import FaceField
     from hullprod_wb.brep.patches import Patches
-    from hullprod_wb.brep.quadrature import patch_area, tensor_cells
+    from hullprod_wb.brep.cubature import patch_area, tensor_cells
     Part, V = fc.Part, fc.V
     poles = [[V(3 * i, 2 * j, 0.3 * math.sin(i + 2 * j)) for j in range(5)] for i in range(5)]
     s = Part.BSplineSurface()

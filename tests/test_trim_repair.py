@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import needs_freecad, shared_hull
-from hullprod_wb.brep.quadrature import integrate
+from hullprod_wb.brep.cubature import integrate
 from hullprod_wb.brep.trimmed_domain import NurbsCurve2D, TrimmedDomain
 from hullprod_wb.core.errors import InputError
 

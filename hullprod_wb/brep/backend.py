@@ -34,7 +34,7 @@ from .provenance import shape_boxes, shape_provenance
 from .patches import Patches
 from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
 from .recorded_shape import FaceRecord, RecordedShape
-from .quadrature import GROUPS, QUANTITIES, NodePrefetch, integrate, patch_area, patch_groups
+from .cubature import GROUPS, QUANTITIES, NodePrefetch, integrate, patch_area, patch_groups
 from .trimmed_domain import TrimmedDomain
 
 #: Quadrature settings; all are options. protocol "budget": every face refined by its error
@@ -109,7 +109,7 @@ def cross_check_occ(ff, reference=None, n=CROSS_CHECK_POINTS):
 
 def area_rule(ff, domain, u_breaks, v_breaks):
     """Represented area by the fixed tensor Gauss-Legendre rule of order 8 on every
-    boundary-fitted patch (quadrature.patch_area), an estimate independent of the adaptive
+    boundary-fitted patch (cubature.patch_area), an estimate independent of the adaptive
     cubature, and the embedded-rule bound on its own error: (area, bound). Only J is
     evaluated (first derivatives: FaceField.area_element)."""
     return patch_area(domain, ff.area_element, 8, u_breaks, v_breaks, ff.area_element_grid)
@@ -320,7 +320,7 @@ class FaceSetup:
 
     def prefetch_until(self, done, order, groups, max_depth):
         """The field at the nodes of the first two quadtree levels of the face's integration,
-        of each of its patch groups when groups (quadrature.NodePrefetch: the field alone, no
+        of each of its patch groups when groups (cubature.NodePrefetch: the field alone, no
         thresholds), level by level until done() (L_ref has arrived); assess_face uses them."""
         if done():
             return
@@ -367,7 +367,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
                 cross_checks=True, setup=None, point_budget=None):
     """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
     separately through a graded map (singular.GradedQuadrantField), then audited. With
-    groups, a face of many patches is integrated in patch groups (quadrature.patch_groups),
+    groups, a face of many patches is integrated in patch groups (cubature.patch_groups),
     in group_jobs processes (face_pool.map_forked; the values do not depend on it), and
     this process computes the area cross-check while it waits for the others (unless the
     setup has it). cross_checks: attach face_cross_checks. face: a Part.Face, or a

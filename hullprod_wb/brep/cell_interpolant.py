@@ -7,7 +7,7 @@ tensor Legendre series of degree 2o - 1 through that grid,
 in the parent's local coordinates (xi, eta) in [0, 1]^2 (V: the Legendre-Vandermonde matrix
 of the grid nodes; its condition number is 122 for o = 5). Its error is measured where it
 was not fitted, at the parent's own o x o Gauss nodes. The adaptive cubature
-(hullprod_wb.brep.quadrature) integrates a mixed cell on lines of its interpolant when that
+(hullprod_wb.brep.cubature) integrates a mixed cell on lines of its interpolant when that
 error is small enough, instead of evaluating the surface along the lines.
 
 On a line of the cell (a segment, SegmentField) the interpolant is a Legendre series of one

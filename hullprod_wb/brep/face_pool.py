@@ -8,7 +8,7 @@ already loaded (no file is read twice and no OpenCascade object is pickled); eac
 its face's record as plain data. Faces are handed out largest first (by their number of
 surface patches), so the longest face does not start last.
 
-A face assessed alone is integrated in patch groups instead (quadrature.patch_groups), which
+A face assessed alone is integrated in patch groups instead (cubature.patch_groups), which
 map_forked shares between this process and children forked from it once the face's field
 and trimmed domain are built; ForkedCall is one such child, for any work on state this
 process has built.

@@ -1,4 +1,4 @@
-"""Quadrature rules on [0, 1] used by the adaptive cubature (hullprod_wb.brep.quadrature):
+"""Quadrature rules on [0, 1] used by the adaptive cubature (hullprod_wb.brep.cubature):
 Gauss-Legendre nodes and weights, the embedded lower-degree rule on the Gauss nodes, the
 Gauss-Kronrod 3/7 pair, and weights integrating the interpolant of samples over a piece.
 """

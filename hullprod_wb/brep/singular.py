@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .nurbs import grid_points
-from .quadrature import integrate
+from .cubature import integrate
 from .trimmed_domain import TrimmedDomain
 
 #: J / max(E, G) below this is degenerate.

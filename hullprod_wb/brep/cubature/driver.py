@@ -1,0 +1,445 @@
+"""The refinement of the cubature: quadtree levels over the patches, acceptance of cells
+against the error budget, the point budget, and integrate().
+
+Tensor Gauss-Legendre of the given order on cells of a quadtree over each patch; all cells
+of a level are evaluated in one field call (cells). A domain of fewer than MIN_INITIAL_CELLS
+patches starts from the patches halved in both directions (those levels count as done). A
+cell that meets no class boundary is accepted on its own Gauss sums when the difference to
+the embedded lower-degree rule on the same nodes (gauss_rules.embedded_weights) fits
+OWN_SAFETY of the budget; otherwise its four children are evaluated. Error estimate of a
+parent cell: |Q(cell) - sum of Q over its 4 children| (coarse against fine resolution; it
+estimates the coarse rule's error, so it is conservative for the children's sum, which is
+what is kept). The tolerance of quantity q is tol_q = rtol max(|Q_q|, ZERO_SCALE s_q,
+reference_q), s_q = A for areas and tau_K A for K integrals. A level whose accepted plus new
+error estimates fit every tol_q ends the refinement. Otherwise the candidates are the cells
+that fit, greedily (smallest errors first, using at most ACCEPT_FRACTION of the budget
+left), TREE_SAFETY of the budget of the smooth quantities (areas; K integrals of cells
+without a level curve): the quadtree is cheap, and this keeps their actual error far inside
+rtol. The candidates' line integrals (lines) are then computed, and the candidates accepted
+greedily again on every quantity against the whole budget left; the others are split. The
+refinement ends at max_depth (the paper's protocol, with a recheck one level deeper) or,
+driven by the error alone, at depth_limit levels or when the next level would exceed the
+point budget.
+
+A cell is mixed when its samples do not all have one class, or when the sampled range of K
+(or of H where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself, contains
+-tau_K or tau_K (or -+tau_H), or K changes sign in it; the K integrals and class areas of a
+parent cell with a mixed child are line integrals (lines).
+"""
+import time
+
+import numpy as np
+
+from ...core.errors import InputError
+from ...core.thresholds import check_positive, classify
+from ..cell_interpolant import grid_matrices
+from ..gauss_rules import embedded_weights, gauss_nodes
+from ..patches import Patches
+from ..trimmed_domain import TrimmedDomain
+from .cells import (_Field, _cat, _children, _greedy_accept, _patch_cells, _share_area_error, cell_nodes,
+                    tensor_cells, values_at_nodes)
+from .result import QuadratureResult
+from .settings import (LEVEL_ROW, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS, N_SMOOTH, OWN_SAFETY,
+                       QUANTITIES, STRADDLE_MARGIN, TREE_SAFETY, ZERO_CHARGE_PARTS, ZERO_CHARGE_SHARE,
+                       ZERO_SCALE)
+from .cuts import CutSearch
+from .lines import LineIntegration
+
+
+class _Integrator(LineIntegration, CutSearch):
+    """State of one adaptive integration (quadtree over the patches, lines in mixed cells).
+
+    Units of the result are accepted parent cells: their four children's Gauss sums give
+    the values, or the lines for the LINE_Q quantities of mixed cells."""
+
+    def __init__(self, domain, field, tau_H, tau_K, order, rtol, class_max_depth, u_breaks,
+                 v_breaks, progress, patch_range=None, prefetch=None, max_depth=None):
+        self.prefetch = prefetch
+        self.f = _Field(field)
+        self.tau_H, self.tau_K = tau_H, tau_K
+        # constants the level functions subtract from their field row (LEVEL_ROW)
+        self.level_offset = np.array([tau_K, -tau_K, tau_H, -tau_H, 0.0])
+        self.order, self.rtol = order, rtol
+        self.class_max_depth = class_max_depth
+        self.lines = True
+        # K = 0 cuts the lines only once the bounds charged instead would not fit
+        # (_line_values, refine_to); zero_charge: the bounds charged in accepted cells
+        self.resolve_zero = False
+        self.zero_charge = 0.0
+        self.progress = progress
+        self.reference = np.zeros(NQ)  # see integrate(reference=...)
+        self.x, self.w = gauss_nodes(order)
+        self.w_embedded = embedded_weights(self.x)
+        self._grid_inverse, self._parent_vander = grid_matrices(self.x)
+        self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
+        self.active, level = _patch_cells(self.patches, patch_range, max_depth)
+        self.max_depth = max_depth if max_depth is not None else 0
+        pid = self.active["pid"]
+        if prefetch is not None and (prefetch.order != order or not all(
+                np.array_equal(prefetch.cells[0][k], self.active[k]) for k in ("pid", "s0", "t0"))):
+            raise InputError("the prefetched nodes are of another order, patch range or max_depth")
+        P = pid.size
+        self.n_initial = P
+        self.nonregular = []
+        self.n_nonregular = 0
+        self.accepted = []  # dicts of arrays of accepted units, one per level
+        self.err_acc = np.zeros(NQ)
+        self.depth = level
+        self.pending = None  # units left unaccepted at the last level
+        self.budget_spent = False  # refinement stopped by the point budget (refine_to)
+        self.point_budget = None
+        self.active.update(self._eval_cells(self.active, self._prefetched(0)))
+        if prefetch is not None:
+            self.active["row"] = np.arange(P)  # the first cell of each active cell (_prefetched)
+        self.history = []
+        self._record_level()
+        self.history *= level + 1  # the levels above the first cells': their estimate
+
+    def _record_level(self):
+        """Append the global estimate (accepted cells plus active cells' Gauss sums)."""
+        Q = sum((p["Q"].sum(0) for p in self.accepted), self.active["Q"].sum(0))
+        self.history.append({q: float(x) for q, x in zip(QUANTITIES, Q)})
+
+    def _thresholds(self, K, H):
+        """(n, 5) level functions K - tau_K, K + tau_K, H - tau_H, H + tau_H, K: the field of
+        LEVEL_ROW minus level_offset."""
+        rows = (None, K, H)
+        return np.stack([rows[r] for r in LEVEL_ROW], -1) - self.level_offset
+
+    def _integrands(self, J, K, H, reg):
+        """(..., 9) integrands of QUANTITIES at samples (...)."""
+        cls = classify(K, H, self.tau_H, self.tau_K, reg)
+        Kv = np.where(reg, K, 0.0)
+        Jv = np.where(reg, J, 0.0)
+        out = [J, Jv, Jv * np.abs(Kv), Jv * np.maximum(Kv, 0.0), Jv * np.maximum(-Kv, 0.0)]
+        out += [Jv * (cls == c) for c in range(4)]
+        return np.stack(out, -1), cls
+
+    def _prefetched(self, level, rows=None):
+        """(J, K, H, regular (n, o, o), and the nodes U, V, du, lo, hi as cell_nodes gives
+        them) of the prefetched level 0 (the first cells) or 1 (the children of the first
+        cells rows (m,), n = 4 m) from the NodePrefetch, None when it has not evaluated that
+        level."""
+        p = self.prefetch
+        if p is None or len(p.values) <= level or (level > 0 and rows is None):
+            return None
+        vals, nodes = p.values[level], p.nodes[level]
+        if level > 0:
+            idx = (4 * rows[:, None] + np.arange(4)).ravel()
+            vals, nodes = tuple(v[idx] for v in vals), tuple(a[idx] for a in nodes)
+        # counted as if evaluated here: n_points are the points the integration uses
+        self.f.n_points += vals[0].size
+        self.f.n_calls += p.calls[level]
+        return vals, nodes
+
+    def _eval_cells(self, c, prefetched=None):
+        """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1), with the
+        field's values at its nodes and the nodes when given (_prefetched; else computed).
+
+        Returns dict Q (n, 9), mixed (n,) bool, peak (n, 3) (u, v, |K| J at the sample of
+        largest |K| J), err_e (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights), pmeas (n,)
+        parameter area, and the samples sJ, sK, sH, sreg (n, o, o)
+        (index [cell, sigma node, t node])."""
+        x, w = self.x, self.w
+        pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
+        nc = pid.size
+        if prefetched is not None:
+            (J, K, H, reg), (U, V, du, lo, hi) = prefetched
+        else:
+            U, V, du, lo, hi = cell_nodes(self.patches, pid, s0, s1, t0, t1, x)
+            J, K, H, reg = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, pid), U, V)
+        W = ((s1 - s0) * (t1 - t0))[:, None, None] * (w[:, None] * w[None, :])[None] \
+            * (du * (hi - lo))[:, :, None]
+        f, cls = self._integrands(J, K, H, reg)
+        Q = np.einsum("cij,cijq->cq", W, f)
+        if self.w_embedded is not None:
+            We = W * (self.w_embedded[:, None] * self.w_embedded[None, :] / (w[:, None] * w[None, :]))[None]
+            err_e = np.abs(Q - np.einsum("cij,cijq->cq", We, f))
+        else:
+            err_e = np.full(Q.shape, np.inf)
+        bad = ~reg
+        nb = int(bad.sum())
+        if nb:
+            self.n_nonregular += nb
+            have = sum(len(a) for a in self.nonregular)
+            if have < MAX_NONREGULAR:
+                self.nonregular.append(np.stack((U[bad], V[bad]), 1)[:MAX_NONREGULAR - have])
+        KJ = np.where(reg, np.abs(K) * J, -1.0).reshape(nc, -1)
+        k = KJ.argmax(1)
+        ar = np.arange(nc)
+        peak = np.stack((U.reshape(nc, -1)[ar, k], V.reshape(nc, -1)[ar, k], KJ[ar, k]), 1)
+        return dict(Q=Q, err_e=err_e, mixed=self._mixed(cls, K, H, reg), peak=peak,
+                    pmeas=W.sum((1, 2)), sJ=J, sK=K, sH=H, sreg=reg)
+
+    def _mixed(self, cls, K, H, reg):
+        """(n,) bool: cells (n, o, o samples) that may meet a class boundary or K = 0."""
+        nc = cls.shape[0]
+        cls, reg = cls.reshape(nc, -1), reg.reshape(nc, -1)
+        anyreg = reg.any(1)
+        out = np.where(reg, cls, 99).min(1) != np.where(reg, cls, -99).max(1)
+
+        def widened(A):
+            A = A.reshape(nc, -1)
+            lo = np.where(reg, A, np.inf).min(1)
+            hi = np.where(reg, A, -np.inf).max(1)
+            m = STRADDLE_MARGIN * np.where(anyreg, hi - lo, 0.0)
+            return lo - m, hi + m
+
+        def meets(lo, hi, *levels):
+            return np.any([(lo <= x) & (hi >= x) for x in levels], 0)
+
+        klo, khi = widened(K)
+        hlo, hhi = widened(H)
+        tk, th = self.tau_K, self.tau_H
+        # K = 0 only matters where K changes sign (a kink of |K|); K identically zero (planes,
+        # cylinders, cones) has none
+        out |= meets(klo, khi, -tk, tk) | ((klo < 0.0) & (khi > 0.0)) \
+            | (klo <= tk) & (khi >= -tk) & meets(hlo, hhi, -th, th)
+        return anyreg & out
+
+    def _tolerance(self, Q):
+        """tol_q = rtol max(|Q_q|, ZERO_SCALE scale_q, reference_q) for all quantities, (9,)."""
+        A = abs(Q[0])
+        scale = np.full(NQ, A)
+        scale[2:5] *= self.tau_K
+        return self.rtol * np.maximum(np.maximum(np.abs(Q), ZERO_SCALE * scale), self.reference)
+
+    def refine_to(self, depth_limit, point_budget=None):
+        """Refine level by level until converged, depth_limit is reached, or (point_budget)
+        the next level's children would take the field points evaluated beyond point_budget.
+        Only the cells left unaccepted are refined, so the depth grows where the error
+        estimates stay large (a singular corner costs four cells a level)."""
+        per_cell = self.order * self.order
+        while self.active["pid"].size and self.depth < depth_limit:
+            self._accept_own()
+            a = self.active
+            na = a["pid"].size
+            if na == 0:
+                break
+            if point_budget is not None and self.f.n_points + 4 * na * per_cell > point_budget \
+                    and self.pending is not None:
+                self.budget_spent = True
+                break
+            ch = _children(a)
+            ch.update(self._eval_cells(ch, self._prefetched(1, a.get("row"))))
+            self.depth += 1
+            # the last level: the depth limit, or the point budget would not hold the next
+            # level's children (at most four a cell refined here)
+            last = self.depth >= depth_limit or (
+                point_budget is not None and self.f.n_points + 16 * na * per_cell > point_budget)
+            if last and self.depth < depth_limit:
+                self.budget_spent = True
+            unit = {k: a[k] for k in ("pid", "s0", "s1", "t0", "t1")}
+            unit["Q"] = ch["Q"].reshape(na, 4, NQ).sum(1)
+            unit["mixed"] = ch["mixed"].reshape(na, 4).any(1)
+            unit["pmeas"] = ch["pmeas"].reshape(na, 4).sum(1)
+            pk = ch["peak"].reshape(na, 4, 3)
+            unit["peak"] = pk[np.arange(na), pk[:, :, 2].argmax(1)]
+            unit["depth"] = np.full(na, self.depth)
+            err = _share_area_error(np.abs(a["Q"] - unit["Q"]), unit["Q"])
+            mixed = unit["mixed"]
+            err_tree = err.copy()
+            if self.lines:
+                err_tree[mixed, 2:N_SMOOTH] = 0.0  # K integrals of mixed cells: from the lines
+            Qtot = sum((p["Q"].sum(0) for p in self.accepted), unit["Q"].sum(0))
+            tol = self._tolerance(Qtot)
+            budget = tol - self.err_acc
+            tree_budget = TREE_SAFETY * budget[:N_SMOOTH]
+            if np.all(err_tree[:, :N_SMOOTH].sum(0) <= tree_budget):
+                accept = np.ones(na, bool)
+            else:
+                accept = _greedy_accept(err_tree[:, :N_SMOOTH], tree_budget)
+            # refinement driven by the error (point_budget given): a level whose cells may fit
+            # the whole budget (the mixed cells' line quantities still to come) is tried as
+            # the last one: all its cells are candidates, the mixed ones on lines (above
+            # max_depth, those whose interpolant is not yet accurate are split instead of
+            # taking lines of the field)
+            fit_trial = False
+            if point_budget is not None and not last and self.lines:
+                hope = err.copy()
+                hope[mixed, LINE_Q] = 0.0
+                fit_trial = last = bool(np.all(hope.sum(0) <= budget))
+            lined = mixed & (accept | last) & self.lines
+            split = np.zeros(na, bool)  # mixed cells split for their interpolants' sake
+            if lined.any():
+                P_tot = sum((p["pmeas"].sum() for p in self.accepted), unit["pmeas"].sum())
+                sub = {k: v[lined] for k, v in unit.items()}
+                share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
+                lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
+                interp = self._interpolants(a, ch, lined, sub, lbudget)
+                if (not last or (fit_trial and self.depth < self.max_depth)) and not interp["use"].all():
+                    # a cell whose interpolant is not yet accurate is split rather than
+                    # integrated on lines of the field: its children's interpolants converge
+                    # fast, and four children cost less than the lines of one cell
+                    keep = interp["use"]
+                    split[np.nonzero(lined)[0][~keep]] = True
+                    accept[np.nonzero(lined)[0][~keep]] = False
+                    lined[lined] = keep
+                    sub = {k: v[keep] for k, v in sub.items()}
+                    interp = {k: v[keep] for k, v in interp.items()}
+                    lbudget = lbudget[keep]
+            if lined.any():
+                val, lerr, _, charge = self._lines(sub, lbudget, interp)
+                if not self.resolve_zero and np.any((self.zero_charge + charge.sum()) * ZERO_CHARGE_PARTS
+                                                    > ZERO_CHARGE_SHARE * tol[2:N_SMOOTH]):
+                    # the bounds for K = 0 left unresolved would take too much of the K
+                    # integrals' tolerance (small K integrals): resolve it from here on
+                    self.resolve_zero = True
+                    val, lerr, _, charge = self._lines(sub, lbudget, interp)
+                # the quadtree's children sums are an independent check of the K integrals:
+                # a discrepancy beyond the line estimate that the quadtree also sees (its own
+                # estimate) marks a rough or singular integrand the lines did not resolve.
+                # Cells on an interpolant have passed a sharper check (the interpolant
+                # against samples it was not built from), and there the discrepancy is the
+                # Gauss sums' own error at the kink of |K| that the lines remove.
+                kq = slice(2, N_SMOOTH)
+                gap = np.minimum(np.abs(val[:, :3] - sub["Q"][:, kq]), err[lined, kq])
+                gap[interp["use"]] = 0.0
+                lerr[:, :3] = np.maximum(lerr[:, :3], gap)
+                unit["Q"][lined, LINE_Q] = val
+                err[lined, LINE_Q] = lerr
+            if fit_trial:  # every cell a candidate but those split for their interpolants
+                accept = ~split
+            # the candidates again, on every quantity with the lines' errors (global budget)
+            c = np.nonzero(accept)[0]
+            if c.size and not np.all(err[c].sum(0) <= budget):
+                accept[c] = _greedy_accept(err[c], budget)
+            unit["err"] = err
+            if accept.any():
+                self.err_acc = self.err_acc + err[accept].sum(0)
+                self.accepted.append({k: v[accept] for k, v in unit.items()})
+                if lined.any():
+                    self.zero_charge += float(charge[accept[lined]].sum())
+            self.pending = {k: v[~accept] for k, v in unit.items()} if last else None
+            r4 = np.repeat(~accept, 4)
+            self.active = {k: v[r4] for k, v in ch.items()}
+            self._record_level()
+            if self.progress is not None:
+                self.progress(min(1.0, self.depth / float(depth_limit + 1) if point_budget is None
+                                  else self.f.n_points / float(point_budget)),
+                              "quadrature depth %d: %d of %d cells refined"
+                              % (self.depth, int((~accept).sum()), na))
+
+    def _accept_own(self):
+        """Accept active cells on their own Gauss sums, without children: cells that meet
+        no class boundary (not mixed), all samples regular, whose embedded error estimates
+        err_e fit greedily in OWN_SAFETY of the remaining budget of every quantity (the
+        class areas' errors: the area's, shared by class fraction, as for children sums)."""
+        a = self.active
+        n = a["pid"].size
+        cand = ~a["mixed"] & a["sreg"].reshape(n, -1).all(1) & np.isfinite(a["err_e"]).all(1)
+        if not cand.any():
+            return
+        err = _share_area_error(a["err_e"].copy(), a["Q"])
+        Qtot = sum((p["Q"].sum(0) for p in self.accepted), a["Q"].sum(0))
+        budget = OWN_SAFETY * (self._tolerance(Qtot) - self.err_acc)
+        ok = np.zeros(n, bool)
+        ok[cand] = _greedy_accept(err[cand], budget)
+        if not ok.any():
+            return
+        unit = {k: a[k][ok] for k in ("pid", "s0", "s1", "t0", "t1", "Q", "mixed", "pmeas", "peak")}
+        unit["depth"] = np.full(int(ok.sum()), self.depth)
+        unit["err"] = err[ok]
+        self.err_acc = self.err_acc + unit["err"].sum(0)
+        self.accepted.append(unit)
+        self.active = {k: v[~ok] for k, v in a.items()}
+
+    @staticmethod
+
+    def _share(Q, pmeas, Qtot, P_tot):
+        """Part (n, 9) of each quantity's tolerance that cells with integrals Q (n, 9) and
+        parameter areas pmeas (n,) stand for: half by their quantity's share, half by the
+        mean of their area and parameter-area shares."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            own = np.nan_to_num(np.abs(Q) / np.abs(Qtot)[None, :], nan=0.0, posinf=0.0)
+        place = 0.5 * (np.maximum(Q[:, 0], 0.0) / max(abs(Qtot[0]), 1e-300)
+                       + pmeas / max(P_tot, 1e-300))
+        return 0.5 * (np.minimum(own, 1.0) + place[:, None])
+
+    def snapshot(self, max_depth, seconds_start):
+        """Result of the current state: accepted units plus those left pending."""
+        parts = list(self.accepted)
+        if self.pending is not None and self.pending["pid"].size:
+            parts.append(self.pending)
+        units = _cat(parts)
+        Q = units["Q"].sum(0)
+        err = units["err"].sum(0)
+        tol = self._tolerance(Q)
+        pend = self.pending if self.pending is not None else {k: v[:0] for k, v in units.items()}
+        unconv = self.patches.boxes(pend["pid"], pend["s0"], pend["s1"], pend["t0"], pend["t1"])
+        top = np.argsort(-units["peak"][:, 2])[:N_PEAKS]
+        deep = np.nonzero(units["depth"] == units["depth"].max())[0][:N_DEEPEST]
+        deepest = self.patches.boxes(*(units[k][deep] for k in ("pid", "s0", "s1", "t0", "t1")))
+        nonreg = np.concatenate(self.nonregular) if self.nonregular else np.empty((0, 2))
+        return QuadratureResult(
+            values={q: float(x) for q, x in zip(QUANTITIES, Q)},
+            errors={q: float(x) for q, x in zip(QUANTITIES, err)},
+            tolerances={q: float(x) for q, x in zip(QUANTITIES, tol)},
+            converged={q: bool(c) for q, c in zip(QUANTITIES, err <= tol)},
+            order=self.order, rtol=self.rtol, max_depth=max_depth,
+            depth_reached=int(units["depth"].max()), n_points=self.f.n_points,
+            n_field_calls=self.f.n_calls, n_cells=4 * int(units["pid"].size),
+            n_initial_cells=self.n_initial, n_mixed_cells=int(units["mixed"].sum()),
+            nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
+            peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start,
+            history=list(self.history), zero_resolved=self.resolve_zero,
+            zero_charge=self.zero_charge, point_budget=self.point_budget, budget_spent=self.budget_spent,
+            deepest_cells=deepest)
+
+
+def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),
+              v_breaks=(), progress=None, recheck=True, class_max_depth=2, reference=None,
+              lines=True, patch_range=None, prefetch=None, depth_limit=None, point_budget=None):
+    """Adaptive boundary-fitted cubature of the signature integrals over a trimmed domain.
+
+    domain: TrimmedDomain. field(u, v), u and v (n,) float, returns a dict (or an object
+    with attributes) of (n,) arrays J = |S_u x S_v| (eq:brep_jacobian), K, H (eq:brephk)
+    and bool regular. tau_H, tau_K > 0: class thresholds (eq:class_thresholds). order:
+    Gauss-Legendre points per direction; rtol: relative tolerance per quantity; max_depth:
+    quadtree levels below the initial patches; u_breaks, v_breaks: knot lines where the
+    integrand is less smooth (cells are cut there); progress(fraction, message) or None;
+    recheck: when something did not converge, continue one level deeper and attach that
+    result as ``recheck`` (paper section 5.2); class_max_depth: halvings in sigma of a
+    mixed cell's line integrals; reference: dict quantity -> magnitude that the tolerance
+    is relative to at least (for a piece of a larger integral, e.g. a singular neighbourhood
+    integrated apart from its face: its share of the face's tolerance); lines: integrate
+    mixed cells on lines (False: Gauss sums throughout, the quadtree's own error estimates;
+    class areas then converge only like the cell size, for callers that need the area and
+    K integrals only); patch_range: (start, stop) of the domain's patches to integrate
+    (default all; see patch_groups), with tolerances relative to their own integrals;
+    prefetch: a NodePrefetch of the same domain, field, order, breaks and patch range, whose
+    values are used where it has them. depth_limit: refinement driven by the error alone:
+    the cells left unaccepted are refined down to depth_limit levels below the patches
+    (max_depth then only bounds the halving of few patches into first cells, and there is
+    no recheck), while the field points stay within point_budget (None: no limit); the
+    result says whether the budget stopped it (budget_spent).
+    Returns a QuadratureResult.
+    """
+    if not isinstance(domain, TrimmedDomain):
+        raise InputError("integrate() needs a TrimmedDomain, got %s" % type(domain).__name__)
+    tau_H = check_positive("tau_H", tau_H)
+    tau_K = check_positive("tau_K", tau_K)
+    check_positive("rtol", rtol)
+    if int(order) < 1 or int(max_depth) < 1 or int(class_max_depth) < 0:
+        raise InputError("quadrature order and max_depth must be >= 1 and class_max_depth "
+                         ">= 0, got %r, %r, %r" % (order, max_depth, class_max_depth))
+    start = time.perf_counter()
+    it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
+                     u_breaks, v_breaks, progress, patch_range, prefetch, int(max_depth))
+    it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
+    it.lines = bool(lines)
+    if depth_limit is not None:
+        it.point_budget = None if point_budget is None else int(point_budget)
+        it.refine_to(int(depth_limit), it.point_budget)
+        result = it.snapshot(int(depth_limit), start)
+        if progress is not None:
+            progress(1.0, "quadrature done: %d points" % it.f.n_points)
+        return result
+    it.refine_to(int(max_depth))
+    result = it.snapshot(int(max_depth), start)
+    if recheck and not result.all_converged:
+        it.refine_to(int(max_depth) + 1)
+        result.recheck = it.snapshot(int(max_depth) + 1, start)
+    if progress is not None:
+        progress(1.0, "quadrature done: %d points" % it.f.n_points)
+    return result

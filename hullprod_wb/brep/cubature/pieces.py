@@ -1,0 +1,112 @@
+"""Pieces of the lines of mixed cells, shared by the line integration and the cut search:
+segments of a line between cuts, crossing counts and pairs of a level, pieces split at or
+halved between parameters, and a parabolic search for the extremum of a level function
+between samples."""
+import numpy as np
+
+from .settings import EDGE_XI, N_LEVELS, PARABOLIC_STEPS
+
+
+def _segments(cuts, owner):
+    """Consecutive pairs of sorted cut values per owner: (owner, a, b) of non-empty pieces.
+
+    cuts, owner (k,); every owner must have its two end values among the cuts."""
+    o = np.lexsort((cuts, owner))
+    c, w = cuts[o], owner[o]
+    k = np.nonzero((w[:-1] == w[1:]) & (c[1:] > c[:-1]))[0]
+    return w[k], c[k], c[k + 1]
+
+
+def _count_and_pairs(line, level, roots, L):
+    """Crossings per line and level, count (L, 5), the closest two of each, pair
+    (L, 5, 2) (NaN when fewer than two), and the first and last of each, ends (L, 5, 2) (NaN
+    when none), from roots (k,) of lines line (k,), levels (k,)."""
+    key = line * N_LEVELS + level
+    count = np.bincount(key, minlength=N_LEVELS * L).reshape(L, N_LEVELS)
+    pair = np.full((L, N_LEVELS, 2), np.nan)
+    ends = np.full((L, N_LEVELS, 2), np.nan)
+    o = np.lexsort((roots, key))
+    key, r = key[o], roots[o]
+    if key.size:
+        new = np.r_[True, key[1:] != key[:-1]]
+        ends.reshape(-1, 2)[key[new], 0] = r[new]
+        last = np.r_[new[1:], True]
+        ends.reshape(-1, 2)[key[last], 1] = r[last]
+    k = np.nonzero(key[1:] == key[:-1])[0]
+    if k.size:
+        k = k[np.lexsort((r[k + 1] - r[k], key[k]))]
+        k = k[np.r_[True, key[k][1:] != key[k][:-1]]]
+        pair.reshape(-1, 2)[key[k]] = np.stack((r[k], r[k + 1]), 1)
+    return dict(count=count, pair=pair, ends=ends)
+
+
+def _parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
+    """Local minima by successive parabolic interpolation, all at once.
+
+    x, f (n, 3): a bracket x0 < x1 < x2 with f1 <= f0, f2 (the middle one lowest).
+    fun(x, index) evaluates at x (m,) for the brackets index (m,); one call per step. Each
+    step evaluates the vertex of the parabola through the bracket (or, when that is not
+    usable, a point 0.38 into the longer side) and keeps the lowest point with its two
+    neighbours. Returns x (n,) and f (n,) of the lowest point."""
+    x, f = np.array(x, dtype=float), np.array(f, dtype=float)
+    idx = np.arange(x.shape[0])
+    for _ in range(steps):
+        x0, x1, x2 = x.T
+        f0, f1, f2 = f.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            p = (x1 - x0) ** 2 * (f1 - f2) - (x1 - x2) ** 2 * (f1 - f0)
+            q = (x1 - x0) * (f1 - f2) - (x1 - x2) * (f1 - f0)
+            xv = x1 - 0.5 * p / q
+        gap = 1e-3 * (x2 - x0)
+        usable = np.isfinite(xv) & (xv > x0 + gap) & (xv < x2 - gap) & (np.abs(xv - x1) > gap)
+        longer_right = (x2 - x1) > (x1 - x0)
+        fallback = np.where(longer_right, x1 + 0.381966 * (x2 - x1), x1 - 0.381966 * (x1 - x0))
+        xn = np.where(usable, xv, fallback)
+        fn = np.asarray(fun(xn, idx), dtype=float)
+        better = fn < f1
+        left = xn < x1
+        # new bracket: (x0, xn, x1), (xn, x1, x2), (x1, xn, x2) or (x0, x1, xn)
+        nx = np.where((left & better)[:, None], np.stack((x0, xn, x1), 1),
+                      np.where((left & ~better)[:, None], np.stack((xn, x1, x2), 1),
+                               np.where(better[:, None], np.stack((x1, xn, x2), 1),
+                                        np.stack((x0, x1, xn), 1))))
+        nf = np.where((left & better)[:, None], np.stack((f0, fn, f1), 1),
+                      np.where((left & ~better)[:, None], np.stack((fn, f1, f2), 1),
+                               np.where(better[:, None], np.stack((f1, fn, f2), 1),
+                                        np.stack((f0, f1, fn), 1))))
+        x, f = nx, np.where(np.isfinite(nf), nf, np.inf)
+    return x[:, 1], f[:, 1]
+
+
+def _split_pieces(pc, piece, at):
+    """Pieces pc (dict of (n,) cell, sa, sb, kind) cut at sigma values at (k,) of pieces
+    piece (k,); the new ends are clustered (cluster_map), old ends keep their clustering."""
+    if piece.size == 0:
+        return {k: v[:0] for k, v in pc.items()}
+    ids = np.unique(piece)
+    cuts = np.concatenate((pc["sa"][ids], at, pc["sb"][ids]))
+    owner = np.concatenate((ids, piece, ids))
+    w, a, b = _segments(cuts, owner)
+    keep_lo = (a == pc["sa"][w]) & (pc["kind"][w] & 1 > 0)
+    keep_hi = (b == pc["sb"][w]) & (pc["kind"][w] & 2 > 0)
+    lo_tan = (a != pc["sa"][w]) | keep_lo
+    hi_tan = (b != pc["sb"][w]) | keep_hi
+    return dict(cell=pc["cell"][w], sa=a, sb=b, kind=lo_tan.astype(int) + 2 * hi_tan.astype(int),
+                perr=np.full(w.size, np.inf), sib=np.full(w.size, -1))
+
+
+def _halve_pieces(pc, mask, err):
+    """The two halves (in sigma) of the pieces pc[mask]; each keeps its outer clustering,
+    and records its parent's error err[mask] (n,) and a sibling id (its parent's index)."""
+    cell, sa, sb, kind = (pc[k][mask] for k in ("cell", "sa", "sb", "kind"))
+    mid = 0.5 * (sa + sb)
+    return dict(cell=np.repeat(cell, 2), sa=np.stack((sa, mid), 1).ravel(),
+                sb=np.stack((mid, sb), 1).ravel(), kind=np.stack((kind & 1, kind & 2), 1).ravel(),
+                perr=np.repeat(err[mask], 2), sib=np.repeat(np.nonzero(mask)[0], 2))
+
+
+def _inside_pieces(pc, piece, at):
+    """Whether the sigma values at (k,) lie inside the pieces piece (k,) of pc, farther than
+    EDGE_XI of their width from both ends (a cut there would leave a needless sliver)."""
+    w = pc["sb"][piece] - pc["sa"][piece]
+    return (at > pc["sa"][piece] + EDGE_XI * w) & (at < pc["sb"][piece] - EDGE_XI * w)
