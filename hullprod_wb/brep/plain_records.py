@@ -267,9 +267,12 @@ def _frames(inp, with_fields, display_deflection, read_seconds):
 
 def display_mesh(face, deflection):
     """OpenCascade's display tessellation of face: its nodes (flat x, y, z doubles), its
-    triangles (flat indices) and the (u, v) nodes of its triangulation (flat u, v)."""
+    triangles (flat indices) and the (u, v) nodes of its triangulation (flat u, v); all
+    three empty for a face OpenCascade gives no triangulation (a face of zero area)."""
     pts, tris = face.tessellate(deflection)
     p, t, uv = array("d"), array("q"), array("d")
+    if not tris:
+        return p, t, uv
     for q in pts:
         p.extend((q.x, q.y, q.z))
     for tri in tris:
