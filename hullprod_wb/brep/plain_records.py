@@ -168,10 +168,10 @@ def edge_vertices(edges):
 def patch_count(face):
     """Knot-span patches of a face's surface (1 for other surface types): the order in which
     faces are handed to worker processes, largest first."""
-    surf = face.Surface
     try:
+        surf = face.Surface
         return max(1, (len(surf.getUKnots()) - 1) * (len(surf.getVKnots()) - 1))
-    except Exception:  # not a B-spline surface
+    except Exception:  # not a B-spline surface, or no surface
         return 1
 
 

@@ -171,5 +171,14 @@ def shape_provenance(shape, faces, areas=None, boxes=None):
         "bounding_box": {"xmin": bb.XMin, "xmax": bb.XMax, "ymin": bb.YMin, "ymax": bb.YMax,
                          "zmin": bb.ZMin, "zmax": bb.ZMax},
         "hull_side": hull_side(shape, bb=bb),
-        "edges": edge_report(shape, faces, boxes),
+        "edges": safe_edge_report(shape, faces, boxes),
     }
+
+
+def safe_edge_report(shape, faces, boxes):
+    """edge_report, or the reason it could not be made (a face whose edges or box
+    OpenCascade cannot give, e.g. of non-finite geometry)."""
+    try:
+        return edge_report(shape, faces, boxes)
+    except Exception as exc:  # OpenCascade raises on invalid (non-finite) boxes and edges
+        return {"not_evaluated": "%s: %s" % (type(exc).__name__, " ".join(str(exc).split()))}

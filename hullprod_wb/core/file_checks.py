@@ -116,6 +116,10 @@ def check_iges(path, data):
     if problem:
         _fail(path, "damaged IGES file: " + problem)
     pdelim = _iges_delimiter(sections["G"])
+    params = "\n".join(p[:64] for p in sections["P"])
+    _no_special_reals(path, "IGES", re.search(r"(?:^|[%s;])\s*[-+]?(?:nan|inf|infinity)\s*(?:[%s;]|$)"
+                                              % (re.escape(pdelim), re.escape(pdelim)), params,
+                                              re.IGNORECASE | re.MULTILINE), params)
     problem, faces = _iges_parameters(entries, sections["P"], n_d, pdelim)
     if problem:
         _fail(path, "damaged IGES file: " + problem)
@@ -182,6 +186,15 @@ def _iges_parameters(entries, p_lines, n_d, pdelim):
 # -- STEP -------------------------------------------------------------------------------------
 
 
+def _no_special_reals(path, kind, match, text):
+    """InputError when match (a regular expression match) found a NaN or infinity where the
+    format has only finite reals."""
+    if match:
+        line = text.count("\n", 0, match.start()) + 1
+        _fail(path, "damaged %s file: %r where a number should be (line %d)"
+              % (kind, " ".join(match.group(0).split()), line))
+
+
 def check_step(path, data):
     text = data.decode("latin-1")
     head = text.lstrip("\ufeff\xef\xbb\xbf \t\r\n")
@@ -199,6 +212,7 @@ def check_step(path, data):
     ends = len(re.findall(r"ENDSEC\s*;", up))
     if ends < sections:
         _fail(path, "truncated: the STEP file has %d sections (HEADER and DATA) and %d ENDSEC;" % (sections, ends))
+    _no_special_reals(path, "STEP", re.search(r"[(,]\s*[-+]?(?:NAN|INF|INFINITY)\s*[),]", up), text)
     faces = len(re.findall(r"=\s*(?:ADVANCED_FACE|FACE_SURFACE)\s*\(", up))
     return {"declared_faces": faces, "declared_faces_rule": "STEP ADVANCED_FACE and FACE_SURFACE entities"}
 
@@ -227,6 +241,8 @@ def check_brep(path, data):
     at = [starts[s][0] for s in BREP_SECTIONS]
     if at != sorted(at):
         _fail(path, "damaged BRep file: its sections are out of order")
+    _no_special_reals(path, "BRep", re.search(r"(?:^|\s)[-+]?(?:nan|inf|infinity)(?:\s|$)", text, re.IGNORECASE),
+                      text)
     i0, n = starts["TShapes"]
     body = [line.strip() for line in lines[i0 + 1:]]
     codes = [c for c in body if c in BREP_SHAPE_CODES]
