@@ -205,6 +205,10 @@ def run_example(args):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
+    # numerical warnings of the libraries (overflow in a cast of a damaged file's numbers) are
+    # not the command's messages: its reasons and validity records say what matters
+    import warnings
+    warnings.filterwarnings("ignore", category=RuntimeWarning)
     early = early_reading(argv)
     try:
         parser = build_parser(next((a for a in argv if not a.startswith("-")), None))

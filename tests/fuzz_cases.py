@@ -247,7 +247,9 @@ def run_case(path, limit=CASE_TIME_LIMIT):
         except ProcessLookupError:
             pass
         os.waitpid(pid, 0)
-        return "hang", "over %.0f s" % limit
+        err.seek(0)
+        last = err.read().decode("utf-8", "replace").strip().splitlines()[-1:] or ["no message"]
+        return "hang", "over %.0f s after %s" % (limit, last[0])
     out.seek(0)
     err.seek(0)
     stdout, stderr = out.read().decode("utf-8", "replace"), err.read().decode("utf-8", "replace")
@@ -269,6 +271,16 @@ def run_case(path, limit=CASE_TIME_LIMIT):
         bad = finite_or_null(doc)
         return ("non-finite", ", ".join(bad)) if bad else ("exit 0", "")
     return "exit %d" % code, stderr[-300:]
+
+
+def reader_ended(outcome, detail, name):
+    """Whether a failure is OpenCascade's reader ending or stalling the process that reads a
+    BRep file (a death by signal, an exit without a message, a hang while reading)."""
+    if name.split("/")[0] not in BREP_BASES:
+        return False
+    if outcome.startswith("signal") or (outcome.startswith("exit") and not detail.strip()):
+        return True
+    return outcome == "hang" and detail.rstrip().endswith("reading BRep")
 
 
 def run_fuzz(n, seed, folder, limit=CASE_TIME_LIMIT, bases=None, log=None):

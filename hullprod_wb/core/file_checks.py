@@ -66,6 +66,8 @@ def _iges_records(data):
         lines = [lines[0][i:i + 80] for i in range(0, len(lines[0]), 80)]
     while lines and not lines[-1].strip(" \x1a\x00"):
         lines.pop()
+    if lines and len(lines[-1].rstrip("\x1a\x00")) < 80 and len(lines) > 1 and len(lines[-2]) >= 80:
+        lines.pop()  # a last record cut short: the file ends before it (see the Terminate check)
     return lines
 
 
