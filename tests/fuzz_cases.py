@@ -25,8 +25,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: Seconds a case may take.
 CASE_TIME_LIMIT = 60.0
 #: Options of every case: a shallow quadrature (the outcome contract, not the accuracy).
-CASE_OPTIONS = ["--json", "--no-fields", "--quiet", "--max-depth", "2", "--order", "3"]
+#: Progress messages stay on: a hang is reported with the last one.
+CASE_OPTIONS = ["--json", "--no-fields", "--max-depth", "2", "--order", "3"]
 
+PROGRESS = re.compile(r"\[\s*\d+%\] ")
 BREP_BASES = ("iges", "step", "brep")
 MESH_BASES = ("stl", "stl_ascii", "ply", "ply_ascii", "obj")
 EXTENSIONS = {"iges": ".igs", "step": ".step", "brep": ".brep", "stl": ".stl", "stl_ascii": ".stl",
@@ -253,7 +255,8 @@ def run_case(path, limit=CASE_TIME_LIMIT):
     out.seek(0)
     err.seek(0)
     stdout, stderr = out.read().decode("utf-8", "replace"), err.read().decode("utf-8", "replace")
-    lines = [line for line in stderr.splitlines() if line.strip() and not line.startswith("warning:")]
+    lines = [line for line in stderr.splitlines()
+             if line.strip() and not line.startswith("warning:") and not PROGRESS.match(line)]
     if os.WIFSIGNALED(status):
         return "signal %s" % signal.Signals(os.WTERMSIG(status)).name, stderr[-300:]
     code = os.WEXITSTATUS(status)
@@ -278,9 +281,10 @@ def reader_ended(outcome, detail, name):
     BRep file (a death by signal, an exit without a message, a hang while reading)."""
     if name.split("/")[0] not in BREP_BASES:
         return False
+    detail = "\n".join(line for line in detail.splitlines() if not PROGRESS.match(line))
     if outcome.startswith("signal") or (outcome.startswith("exit") and not detail.strip()):
         return True
-    return outcome == "hang" and detail.rstrip().endswith("reading BRep")
+    return outcome == "hang" and detail.rstrip().endswith("] reading BRep")
 
 
 def run_fuzz(n, seed, folder, limit=CASE_TIME_LIMIT, bases=None, log=None):

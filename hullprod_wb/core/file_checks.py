@@ -188,9 +188,15 @@ def _iges_parameters(entries, p_lines, n_d, pdelim):
 # -- STEP -------------------------------------------------------------------------------------
 
 
+#: A decimal exponent beyond the range of doubles (the number reads as infinity).
+OVERFLOWING_EXPONENT = re.compile(r"\d\.?\d*[eEdD]\+?0*([4-9]\d\d|3[1-9]\d|309|\d{4,})\b")
+
+
 def _no_special_reals(path, kind, match, text):
     """InputError when match (a regular expression match) found a NaN or infinity where the
-    format has only finite reals."""
+    format has only finite reals, or text has a number beyond the range of doubles."""
+    if match is None:
+        match = OVERFLOWING_EXPONENT.search(text)
     if match:
         line = text.count("\n", 0, match.start()) + 1
         _fail(path, "damaged %s file: %r where a number should be (line %d)"
