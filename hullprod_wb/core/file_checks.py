@@ -80,7 +80,7 @@ def check_iges(path, data):
     sections = {k: [] for k in "SGDPT"}
     order, current = "SGDPT", 0
     for i, line in enumerate(lines, 1):
-        letter = line[72] if len(line) >= 73 else ""
+        letter = line[72:73]
         if letter not in sections:
             _fail(path, "not a valid IGES file: line %d has no section letter in column 73 (%r)"
                   % (i, line[72:80] if len(line) > 72 else line[-8:]))
@@ -89,12 +89,15 @@ def check_iges(path, data):
             _fail(path, "not a valid IGES file: line %d is a %s line after the %s section"
                   % (i, IGES_SECTIONS[letter], IGES_SECTIONS[order[current]]))
         current = k
-        seq = _int(line[73:80])
-        if seq != len(sections[letter]) + 1:
-            _fail(path, "damaged IGES file: line %d is numbered %s in the %s section, expected %d (a line is "
-                  "missing, repeated or overwritten)" % (i, line[73:80].strip() or "blank",
-                                                          IGES_SECTIONS[letter], len(sections[letter]) + 1))
         sections[letter].append(line)
+    first = 1
+    for letter in order:  # each section numbered 1..n: its last line's number is its count
+        sec = sections[letter]
+        if sec and _int(sec[-1][73:80]) != len(sec):
+            _fail(path, "damaged IGES file: line %d is numbered %s in the %s section, expected %d (a line is "
+                  "missing, repeated or overwritten)" % (first + len(sec) - 1, sec[-1][73:80].strip() or "blank",
+                                                          IGES_SECTIONS[letter], len(sec)))
+        first += len(sec)
     n_d, n_p = len(sections["D"]), len(sections["P"])
     entries, problem = _iges_entries(sections["D"], n_p)
     declared_p = max((p + c - 1 for _, p, c, _ in entries), default=0)
@@ -119,9 +122,8 @@ def check_iges(path, data):
         _fail(path, "damaged IGES file: " + problem)
     pdelim = _iges_delimiter(sections["G"])
     params = "\n".join(p[:64] for p in sections["P"])
-    _no_special_reals(path, "IGES", re.search(r"(?:^|[%s;])\s*[-+]?(?:nan|inf|infinity)\s*(?:[%s;]|$)"
-                                              % (re.escape(pdelim), re.escape(pdelim)), params,
-                                              re.IGNORECASE | re.MULTILINE), params)
+    _no_special_reals(path, "IGES", r"(?:^|[%s;])\s*[-+]?(?:nan|inf|infinity)\s*(?:[%s;]|$)"
+                      % (re.escape(pdelim), re.escape(pdelim)), params, re.IGNORECASE | re.MULTILINE)
     problem, faces = _iges_parameters(entries, sections["P"], n_d, pdelim)
     if problem:
         _fail(path, "damaged IGES file: " + problem)
@@ -188,15 +190,20 @@ def _iges_parameters(entries, p_lines, n_d, pdelim):
 # -- STEP -------------------------------------------------------------------------------------
 
 
-#: A decimal exponent beyond the range of doubles (the number reads as infinity).
-OVERFLOWING_EXPONENT = re.compile(r"\d\.?\d*[eEdD]\+?0*([4-9]\d\d|3[1-9]\d|309|\d{4,})\b")
+#: A decimal exponent of three digits or more (lower case), and of those the ones beyond the
+#: range of doubles (the number reads as infinity).
+LONG_EXPONENT = re.compile(r"[\d.][ed]\+?0*\d{3,}")
+OVERFLOWING_EXPONENT = re.compile(r"[\d.][ed]\+?0*(?:[4-9]\d\d|3[1-9]\d|309|[1-9]\d{3,})\b")
 
 
-def _no_special_reals(path, kind, match, text):
-    """InputError when match (a regular expression match) found a NaN or infinity where the
-    format has only finite reals, or text has a number beyond the range of doubles."""
-    if match is None:
-        match = OVERFLOWING_EXPONENT.search(text)
+def _no_special_reals(path, kind, pattern, text, flags=0):
+    """InputError when the regular expression pattern (a NaN or an infinity where the format
+    has only finite reals; searched only when the text has 'nan' or 'inf') matches in text,
+    or text has a number beyond the range of doubles."""
+    low = text.lower()
+    match = re.search(pattern, text, flags) if ("nan" in low or "inf" in low) else None
+    if match is None and LONG_EXPONENT.search(low):
+        match = OVERFLOWING_EXPONENT.search(low)
     if match:
         line = text.count("\n", 0, match.start()) + 1
         _fail(path, "damaged %s file: %r where a number should be (line %d)"
@@ -220,7 +227,7 @@ def check_step(path, data):
     ends = len(re.findall(r"ENDSEC\s*;", up))
     if ends < sections:
         _fail(path, "truncated: the STEP file has %d sections (HEADER and DATA) and %d ENDSEC;" % (sections, ends))
-    _no_special_reals(path, "STEP", re.search(r"[(,]\s*[-+]?(?:NAN|INF|INFINITY)\s*[),]", up), text)
+    _no_special_reals(path, "STEP", r"[(,]\s*[-+]?(?:NAN|INF|INFINITY)\s*[),]", up)
     faces = len(re.findall(r"=\s*(?:ADVANCED_FACE|FACE_SURFACE)\s*\(", up))
     return {"declared_faces": faces, "declared_faces_rule": "STEP ADVANCED_FACE and FACE_SURFACE entities"}
 
@@ -249,8 +256,7 @@ def check_brep(path, data):
     at = [starts[s][0] for s in BREP_SECTIONS]
     if at != sorted(at):
         _fail(path, "damaged BRep file: its sections are out of order")
-    _no_special_reals(path, "BRep", re.search(r"(?:^|\s)[-+]?(?:nan|inf|infinity)(?:\s|$)", text, re.IGNORECASE),
-                      text)
+    _no_special_reals(path, "BRep", r"(?:^|\s)[-+]?(?:nan|inf|infinity)(?:\s|$)", text, re.IGNORECASE)
     i0, n = starts["TShapes"]
     body = [line.strip() for line in lines[i0 + 1:]]
     codes = [c for c in body if c in BREP_SHAPE_CODES]
