@@ -21,7 +21,7 @@ CASES, SEED = 200, 20
 def test_fuzz_cases_exit_0_or_2(tmp_path):
     # a driver process of its own: without FreeCAD loaded, as the command starts
     r = subprocess.run(["/usr/bin/python3", os.path.join(HERE, "fuzz_cases.py"), "--cases", str(CASES), "--seed",
-                        str(SEED), "--limit", "15", "--json", "--keep", str(tmp_path)],
+                        str(SEED), "--limit", "10", "--json", "--keep", str(tmp_path)],
                        capture_output=True, text=True, timeout=900, cwd=ROOT)
     report = json.loads(r.stdout.strip().splitlines()[-1])
     outcomes = report["outcomes"]
@@ -31,5 +31,5 @@ def test_fuzz_cases_exit_0_or_2(tmp_path):
     ours = [f for f in failures if not reader_ended(f[2], f[3], f[0])]
     assert not ours, "\n".join("%s %s: %s: %s" % tuple(f) for f in ours)
     if failures:  # OpenCascade's reader ended or stalled the process: it must read in a child
-        pytest.xfail("%d of %d cases: OpenCascade's reader ended the reading process (%s)"
+        pytest.xfail("%d of %d cases: OpenCascade's reader ended or stalled the process reading the file (%s)"
                      % (len(failures), CASES, "; ".join("%s %s" % (f[0], f[2]) for f in failures)))
