@@ -62,10 +62,10 @@ def left_out_face(number, face, exc, setup=None):
         try:
             surface_type = type(face.Surface).__name__
         except Exception:  # no surface at all
-            surface_type = None
+            surface_type = "no surface"
     if isinstance(exc, EmptyDomain):
         return LeftOutFace(number, "its trimmed domain has no extent (%s): a face of zero area" % exc,
-                           0.0, "trimmed domain without extent", surface_type)
+                           0.0, "trimmed domain without extent", surface_type or "no surface")
     reason = _one_line(exc)
     from .backend import FaceSetup, area_rule
     try:
