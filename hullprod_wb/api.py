@@ -13,7 +13,7 @@ from .core.inputs import describe_file
 def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
-        return describe_file(source)["representation"]
+        return describe_file(source)["representation"]  # and its structure checked
     if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.plain_records)
         return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
@@ -30,7 +30,7 @@ def representation_of(source):
 
 
 def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, faces=None,
-           with_fields=True, progress=None, **options):
+           with_fields=True, progress=None, object_name=None, **options):
     """Compute the producibility signature of source.
 
     source: path (.stl .obj .ply .igs .iges .step .stp .brep), FreeCAD document object,
@@ -38,10 +38,18 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
     in the input's units (None: automatic). h_f, k_f: class tolerances. backend: 'brep',
     'mesh' or None (by representation). faces: 1-based BRep face numbers to assess.
     options: BRep settings (order, rtol, max_depth, protocol, point_budget, depth_limit: see
-    brep.backend.DEFAULT_QUADRATURE; jobs: worker processes for the faces,
-    see brep.face_pool). Returns an Assessment.
+    brep.backend.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
+    brep.face_pool). A FreeCAD document (.FCStd path): object_name (Name or Label) selects
+    its object (document_input.pick_object). Every file's structure is checked before a
+    reader sees it (core.file_checks). Returns an Assessment.
     """
     rep = representation_of(source)
+    if rep == "document":
+        from .document_input import assess_document
+        return assess_document(source, object_name, lref=lref, h_f=h_f, k_f=k_f, backend=backend, faces=faces,
+                               with_fields=with_fields, progress=progress, **options)
+    if object_name is not None:
+        raise InputError("--object selects an object of a FreeCAD document (.FCStd); the input is a %s" % rep)
     if backend is not None and backend != rep:
         raise InputError(
             "the input is a %s and cannot be assessed by the %s backend: the two realizations are "
@@ -73,5 +81,9 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         if hasattr(source, "close"):
             source.close()
         raise
-    return assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
-                       progress=progress, **options)
+    result = assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
+                         progress=progress, **options)
+    from .core.file_checks import mark_fewer_faces
+    if mark_fewer_faces(result.validity, result.input or {}):
+        result.warnings.append(next(iter(result.validity.values())).reason.rsplit("; ", 1)[-1])
+    return result

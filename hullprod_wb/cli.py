@@ -10,7 +10,7 @@ import time
 
 from .core.constants import DEFAULT_HF, DEFAULT_KF
 from .core.errors import InputError
-from .core.inputs import BREP_FORMATS
+from .core.inputs import BREP_FORMATS, describe_file
 from .core.progress import StderrProgress, null_progress
 
 #: Modules that add further subcommands (each has add_parser(subparsers)); absent ones are skipped.
@@ -68,7 +68,7 @@ def add_common_options(p):
 
 #: analyze's options that take a value (the others are flags), for early_reading's scan.
 VALUE_OPTIONS = ("--lref", "--hf", "--kf", "--backend", "--faces", "--order", "--rtol", "--max-depth",
-                 "--protocol", "--point-budget", "--depth-limit", "--jobs", "--out")
+                 "--protocol", "--point-budget", "--depth-limit", "--jobs", "--out", "--object")
 
 
 def early_reading(argv):
@@ -97,6 +97,10 @@ def early_reading(argv):
     path = positional[0]
     if os.path.splitext(path)[1].lower() not in BREP_FORMATS or not os.path.isfile(path):
         return None
+    try:  # a file whose structure is broken never reaches a reader: describe_file says why
+        describe_file(path)
+    except InputError:
+        return None
     from .brep.plain_records import ReadInChild, reads_in_child
     try:
         faces = parse_faces(opts.get("--faces"))
@@ -124,8 +128,12 @@ def build_parser(command=None):
     sub.required = True
 
     a = sub.add_parser("analyze", help="signature of one hull file")
-    a.add_argument("input", help="hull file: .stl .obj .ply (mesh) or .igs .iges .step .stp .brep (BRep)")
+    a.add_argument("input", help="hull file: .stl .obj .ply (mesh), .igs .iges .step .stp .brep (BRep) "
+                                 "or a FreeCAD document .FCStd (see --object)")
     add_common_options(a)
+    a.add_argument("--object", default=None, metavar="NAME_OR_LABEL",
+                   help="object of a .FCStd document to assess (default: its only shape-bearing "
+                        "top-level object, or the only visible one of them)")
     a.add_argument("--out", default=None, help="write signature.json/.csv and fields.vtp/.csv here")
     a.add_argument("--overwrite", action="store_true", help="allow writing into a non-empty --out folder")
     a.add_argument("--json", action="store_true", help="print only the JSON document on stdout")
@@ -178,7 +186,8 @@ def run_analyze(args):
         else:
             early.close()
     result = assess(source, lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
-                    faces=faces, with_fields=with_fields, progress=progress, **quadrature_options(args))
+                    faces=faces, with_fields=with_fields, progress=progress, object_name=args.object,
+                    **quadrature_options(args))
     if args.report and not args.out:
         raise InputError("--report writes DIR/report.html: give --out DIR")
     paths = result.save(args.out, overwrite=args.overwrite) if args.out else None
@@ -208,6 +217,10 @@ def run_example(args):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
+    # numerical warnings of the libraries (overflow in a cast of a damaged file's numbers) are
+    # not the command's messages: its reasons and validity records say what matters
+    import warnings
+    warnings.filterwarnings("ignore", category=RuntimeWarning)
     early = early_reading(argv)
     try:
         parser = build_parser(next((a for a in argv if not a.startswith("-")), None))

@@ -35,6 +35,9 @@ def add_parser(subparsers):
     b.add_argument("--start-method", choices=("spawn", "forkserver", "fork"), default="spawn",
                    help="how local worker processes start (default spawn)")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.add_argument("--case-timeout", type=float, default=None, metavar="S",
+                   help="stop a case after S seconds and record it as an error row (default: no "
+                        "limit; recorded in the table's case_timeout_s column)")
     b.add_argument("--backend-option", action="append", default=[], metavar="KEY=VALUE",
                    help="further keyword option of the BRep backend, repeatable, e.g. "
                         "display_deflection=0.02 (coarser display samples: faster when fields are not needed)")
@@ -74,6 +77,10 @@ def run_batch_command(args):
     settings = split_options(dict(lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
                                   faces=parse_faces(args.faces), object=args.object, **quadrature_options(args),
                                   **parse_backend_options(args.backend_option)))
+    if args.case_timeout is not None:
+        if not args.case_timeout > 0:
+            raise InputError("--case-timeout takes a positive number of seconds, got %g" % args.case_timeout)
+        settings["case_timeout"] = float(args.case_timeout)  # not part of the settings hash
     cases = expand_cases(args.inputs, variants=args.variants, object_name=args.object)
     signal.signal(signal.SIGTERM, _interrupt)  # a terminated batch stops its workers as Ctrl-C does
     result = run_batch(cases, settings, out=args.out, workers=args.workers, scheduler=args.scheduler,

@@ -85,9 +85,12 @@ def set_parameter(doc, name, value):
 
 def _area(obj):
     shape = getattr(obj, "Shape", None)
-    if shape is None or shape.isNull() or not shape.Faces:
+    try:
+        if shape is None or shape.isNull() or not shape.Faces:
+            return 0.0
+        return shape.Area
+    except Exception:  # OpenCascade cannot compute the area of one of its faces
         return 0.0
-    return shape.Area
 
 
 def pick_hull_object(doc, name=None):

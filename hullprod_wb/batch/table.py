@@ -4,7 +4,8 @@ Columns: case identity (id, kind, input path, content hash, variant name and one
 ``param.<name>`` column per variant parameter), the assessed object and representation,
 L_ref, the seven signature entries (paper eq:vector) and their validity statuses, the
 represented and valid areas, the valid area fraction A_K / A, warnings, the case status
-('ok' | 'error') with the error message, the settings hash and the case runtime.
+('ok' | 'error') with the error message, the settings hash, the case time limit
+(case_timeout_s, empty: none) and the case runtime.
 A value that is not established is an empty cell, never a number.
 """
 import csv
@@ -20,12 +21,13 @@ PARAM_PREFIX = "param."
 TIMING_COLUMNS = ("runtime_s",)
 
 #: Numeric columns (parsed back to float, empty -> None).
-NUMERIC_COLUMNS = ("L_ref",) + METRICS + ("represented_area", "valid_area", "valid_area_fraction", "runtime_s")
+NUMERIC_COLUMNS = ("L_ref",) + METRICS + ("represented_area", "valid_area", "valid_area_fraction", "runtime_s",
+                                          "case_timeout_s")
 
 _HEAD = ("case_id", "kind", "input", "input_sha256", "variant")
 _TAIL = (("object", "representation", "L_ref", "L_ref_mode") + METRICS + tuple(m + "_status" for m in METRICS)
          + ("represented_area", "valid_area", "valid_area_fraction", "warnings", "status", "error",
-            "settings_hash") + TIMING_COLUMNS)
+            "settings_hash", "case_timeout_s") + TIMING_COLUMNS)
 
 
 def columns(param_names=()):
@@ -33,8 +35,9 @@ def columns(param_names=()):
     return list(_HEAD) + [PARAM_PREFIX + n for n in param_names] + list(_TAIL)
 
 
-def make_row(case, settings_hash, doc=None, error=None, runtime=None, object_name=None):
-    """Table row (typed values) of a finished case.
+def make_row(case, settings_hash, doc=None, error=None, runtime=None, object_name=None, case_timeout=None):
+    """Table row (typed values) of a finished case (case_timeout: its time limit in
+    seconds, None: none).
 
     doc: the assessment's JSON document (Assessment.to_dict()) or None when the case
     failed; error: one-line error message or None.
@@ -63,6 +66,7 @@ def make_row(case, settings_hash, doc=None, error=None, runtime=None, object_nam
     row["status"] = "error" if error else "ok"
     row["error"] = " ".join(str(error).split()) if error else None
     row["settings_hash"] = settings_hash
+    row["case_timeout_s"] = None if case_timeout is None else float(case_timeout)
     row["runtime_s"] = None if runtime is None else round(float(runtime), 4)
     return row
 

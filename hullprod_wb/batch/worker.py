@@ -4,6 +4,7 @@ run_case is a top-level function so that a process pool and a Dask cluster can b
 it by reference (workers import hullprod_wb). Every failure of a case becomes an error
 record; nothing a case does can stop the batch.
 """
+import contextlib
 import os
 import platform
 import shutil
@@ -78,6 +79,48 @@ def _assess_case(case, settings, path):
         return assess(source, **opts).to_dict(), obj.Name
 
 
+class CaseTimeout(Exception):
+    """A case that ran longer than the batch's case_timeout."""
+
+
+#: Seconds after the case_timeout at which a worker process whose case is stuck outside
+#: Python (in the geometry kernel, where the timeout signal cannot stop it) ends itself;
+#: the pool then records the case as a crash.
+HARD_TIMEOUT_GRACE = 30.0
+
+
+@contextlib.contextmanager
+def case_time_limit(seconds):
+    """Raise CaseTimeout in the block after seconds (None: no limit). The limit is a
+    SIGALRM timer where this is the main thread (this process, a local pool worker; a Dask
+    worker's thread runs without one); in a worker process a watchdog thread ends the
+    process HARD_TIMEOUT_GRACE seconds later if the case is stuck in code the signal
+    cannot interrupt."""
+    if not seconds or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    import multiprocessing
+    import signal
+
+    def expire(signum, frame):
+        raise CaseTimeout("the case took longer than --case-timeout %g s and was stopped" % seconds)
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    done = threading.Event()
+    if multiprocessing.parent_process() is not None:
+        def watchdog():
+            if not done.wait(seconds + HARD_TIMEOUT_GRACE):
+                os._exit(70)
+        threading.Thread(target=watchdog, daemon=True).start()
+    signal.setitimer(signal.ITIMER_REAL, float(seconds))
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
+        done.set()
+
+
 def run_case(case, settings, settings_hash, payload=None):
     """Assess one case; return its record (dict).
 
@@ -85,7 +128,8 @@ def run_case(case, settings, settings_hash, payload=None):
     payload: the input file's bytes when the worker may not see the path (Dask).
     Record keys: case, settings, settings_hash, status ('ok' | 'error'), error (None or
     {type, message, traceback}), row (table row), assessment (JSON document or None),
-    runtime_s, worker, finished_at.
+    runtime_s, worker, finished_at. settings['case_timeout'] (seconds, None: none): the
+    case's time limit (case_time_limit); a case that exceeds it is an error record.
     """
     if isinstance(case, dict):
         case = Case.from_dict(case)
@@ -93,7 +137,7 @@ def run_case(case, settings, settings_hash, payload=None):
     doc, error, obj_name = None, None, None
     tmpdir = tempfile.mkdtemp(prefix="hullprod-batch-")
     try:
-        with _CASE_LOCK:
+        with _CASE_LOCK, case_time_limit(settings.get("case_timeout")):
             path = _local_copy(case, payload, tmpdir)
             doc, obj_name = _assess_case(case, settings, path)
             if path != case.path:  # report the input under its own path, not the worker's copy
@@ -107,7 +151,7 @@ def run_case(case, settings, settings_hash, payload=None):
         shutil.rmtree(tmpdir, ignore_errors=True)
     runtime = time.perf_counter() - t0
     err_text = None if error is None else "%s: %s" % (error["type"], error["message"])
-    row = make_row(case, settings_hash, doc, err_text, runtime, obj_name)
+    row = make_row(case, settings_hash, doc, err_text, runtime, obj_name, settings.get("case_timeout"))
     return {"case": case.to_dict(), "settings": settings, "settings_hash": settings_hash,
             "status": row["status"], "error": error, "row": row, "assessment": doc,
             "runtime_s": runtime, "worker": "%s:%d" % (platform.node(), os.getpid()),
@@ -118,7 +162,7 @@ def crash_record(case, settings, settings_hash, message, kind="WorkerCrash"):
     """Error record of a case that could not report itself (its worker died, or the task
     failed outside run_case); kind names the failure in the error column."""
     error = {"type": kind, "message": message, "traceback": None}
-    row = make_row(case, settings_hash, None, "%s: %s" % (kind, message), None, None)
+    row = make_row(case, settings_hash, None, "%s: %s" % (kind, message), None, None, settings.get("case_timeout"))
     return {"case": case.to_dict(), "settings": settings, "settings_hash": settings_hash, "status": "error",
             "error": error, "row": row, "assessment": None, "runtime_s": None, "worker": None,
             "finished_at": time.strftime("%Y-%m-%dT%H:%M:%S%z")}

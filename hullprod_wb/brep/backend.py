@@ -30,7 +30,8 @@ from .face_field import FaceField
 from .face_pool import map_faces, map_forked, resolve_jobs
 from .loading import BRepInput, load_brep
 from .lref_samples import read_and_start
-from .provenance import shape_boxes, shape_provenance
+from .left_out import EmptyDomain, LeftOutFace, evaluated_faces, left_out_face, mark_left_out
+from .provenance import occ_face_area, shape_boxes, shape_provenance
 from .patches import Patches
 from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
 from .recorded_shape import FaceRecord, RecordedShape
@@ -277,6 +278,8 @@ class FaceSetup:
                 domain = polygon_domain(face)
                 domain.fallback = " ".join(str(exc).split())
         self.ff, self.domain = ff, domain
+        if not (domain.u_range[1] > domain.u_range[0] and domain.v_range[1] > domain.v_range[0]):
+            raise EmptyDomain("u in [%r, %r], v in [%r, %r]" % (*domain.u_range, *domain.v_range))
         u_breaks, v_breaks = ff.evaluator.continuity_breaks(urange=domain.u_range, vrange=domain.v_range)
         self.u_breaks, self.v_breaks = u_breaks, v_breaks
         self.deg = singular.find_degenerate(ff, domain, u_breaks, v_breaks)
@@ -347,6 +350,16 @@ class FaceSetup:
             self.check["seconds"] = time.perf_counter() - t
 
 
+def set_up_or_none(face, area_check, here=False):
+    """FaceSetup(face, area_check) (FaceSetup.here when here), or None when the set-up
+    raises: the face is then set up again where it is integrated, and left out there
+    (left_out.left_out_face) when it raises again."""
+    try:
+        return FaceSetup.here(face, area_check) if here else FaceSetup(face, area_check=area_check)
+    except Exception:  # recorded by the face's own assessment
+        return None
+
+
 def set_up_until(done, faces, cost, area_check):
     """FaceSetup.here of the faces, smallest cost first, each with its area rule when
     area_check, until done() (None: none is set up): a list with None where a face was not
@@ -357,7 +370,7 @@ def set_up_until(done, faces, cost, area_check):
     for i in sorted(range(len(faces)), key=lambda i: cost[i]):
         if done():
             break
-        setups[i] = FaceSetup.here(faces[i])
+        setups[i] = set_up_or_none(faces[i], False, here=True)
         if area_check and setups[i] is not None and not done():
             setups[i].area_check()
     return setups
@@ -780,10 +793,11 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     # faces (several faces: the faces do)
     groups = len(inp.faces) == 1
     if n_jobs == 1:
-        setups = [FaceSetup(f, area_check=cross_checks) for _, f in inp.faces]
+        setups = [set_up_or_none(f, cross_checks) for _, f in inp.faces]
         if recorded:  # and the field at the first quadtree levels, while L_ref is on its way
             for s in setups:
-                s.prefetch_until(inp.lref_ready, opts["order"], groups, opts["max_depth"])
+                if s is not None:
+                    s.prefetch_until(inp.lref_ready, opts["order"], groups, opts["max_depth"])
     else:
         setups = set_up_until(inp.lref_ready if recorded else None, [f for _, f in inp.faces], cost,
                               cross_checks)
@@ -794,7 +808,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     else:
         boxes = shape_boxes(inp.shape, inp.faces)  # before anything is tessellated here
         size = boxes[0].DiagonalLength
-        occ_areas = [f.Area for _, f in inp.faces]  # while a started L_ref tessellation runs
+        occ_areas = [occ_face_area(f) for _, f in inp.faces]  # while a started L_ref tessellation runs
         # the automatic L_ref from the nodes of one fixed tessellation, whatever the display
         lref_samples = tessellation_samples([f for _, f in inp.faces], SAMPLE_DEFLECTION * size,
                                             inp.lref_tessellation)
@@ -810,7 +824,20 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         return face.field() if recorded else FaceField(face)
 
     def display_samples(meshes=None):  # exact fields at the display nodes (display.sample_faces)
-        out = sample_faces([(n, display_field(i, f)) for i, (n, f) in enumerate(inp.faces)], deflection, meshes)
+        out = None
+        try:
+            out = sample_faces([(n, display_field(i, f)) for i, (n, f) in enumerate(inp.faces)], deflection, meshes)
+        except Exception:  # a face without a field or a display mesh: the others, one by one
+            parts = []
+            for i, (n, f) in enumerate(inp.faces):
+                try:
+                    parts.append(sample_faces([(n, display_field(i, f))], deflection,
+                                              None if meshes is None else [meshes[i]]))
+                except Exception:  # that face is NOT EVALUATED in its record (left_out)
+                    continue
+            parts = [p for p in parts if p is not None]
+            if parts:
+                out = merge_samples(parts)
         if out is None:
             raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
         return out
@@ -823,7 +850,8 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
 
     t = time.perf_counter()
     # progress weights: OpenCascade's face areas where known, else the faces' patch counts
-    areas = np.maximum(np.array(cost if occ_areas is None else occ_areas, dtype=float), 0.0)
+    known = occ_areas is not None and None not in occ_areas
+    areas = np.maximum(np.array(occ_areas if known else cost, dtype=float), 0.0)
     weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
     group_jobs = resolve_jobs(jobs, GROUPS) if groups else 1
     face_budgets = face_point_budgets(opts, weights)
@@ -837,13 +865,17 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
             sub(0.0, "integrating")
         else:
             sub = null_progress
-        return assess_face(number, face, th, ref.value, opts, sub, groups, group_jobs, cross_checks,
-                           setups[i], face_budgets[i]).detach()
+        try:
+            return assess_face(number, face, th, ref.value, opts, sub, groups, group_jobs, cross_checks,
+                               setups[i], face_budgets[i]).detach()
+        except Exception as exc:  # a face OpenCascade or its data cannot give: left out, recorded
+            return left_out_face(number, face, exc, setups[i])
 
     def finished(i, f):
         done[0] += weights[i]
         done[1] += 1
-        progress(0.05 + 0.9 * done[0], "face %d done (%d of %d faces)" % (f.number, done[1], len(inp.faces)))
+        progress(0.05 + 0.9 * done[0], "face %d %s (%d of %d faces)"
+                 % (f.number, "done" if isinstance(f, FaceAssessment) else "NOT EVALUATED", done[1], len(inp.faces)))
 
     if n_jobs > 1:
         progress(0.05, "integrating %d faces in %d processes" % (len(inp.faces), n_jobs))
@@ -859,10 +891,11 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
                         labels=["Face%d" % n for n, _ in inp.faces], while_waiting=shape_records)
     for _ in range(BUDGET_ROUNDS if opts["protocol"] != "paper" else 0):
         # the faces that carry the shape's excess error, again with more points
-        redo = faces_to_refine(results, opts["rtol"])
+        ev = [i for i, r in enumerate(results) if not isinstance(r, LeftOutFace)]
+        redo = [ev[k] for k in faces_to_refine([results[i] for i in ev], opts["rtol"])]
         if not redo:
             break
-        used = sum(f.quad.n_points for f in results)
+        used = sum(results[i].quad.n_points for i in ev)
         share = np.array([sum(f.quad.errors[q] for q in QUANTITIES[2:5]) for f in (results[i] for i in redo)])
         share = share / share.sum() if share.sum() > 0 else np.full(len(redo), 1.0 / len(redo))
         for i, w in zip(redo, share):
@@ -872,6 +905,9 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         again = map_faces(lambda k: face_work(redo[k]), len(redo), min(n_jobs, len(redo)),
                           cost=[face_budgets[i] for i in redo], labels=["Face%d" % inp.faces[i][0] for i in redo])
         for i, f in zip(redo, again):
+            if isinstance(f, LeftOutFace):
+                results[i] = f
+                continue
             # the earlier and the finer integration must agree within their error estimates
             f.disagreement = {q: [results[i].quad.values[q], f.quad.values[q]] for q in QUANTITIES
                               if abs(f.quad.values[q] - results[i].quad.values[q])
@@ -887,6 +923,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         timings["provenance"] += time.perf_counter() - tp
     timings["quadrature"] = time.perf_counter() - t
 
+    results, left_out = evaluated_faces(results)
     integrals = SurfaceIntegrals.zero()
     for f in results:
         integrals = integrals + f.result.integrals()
@@ -894,6 +931,9 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     history = refinement_history(results, ref.value)
     validity = metric_validity(results, integrals, values, opts, history)
     rows = face_records(results, integrals, ref.value, th.tau_H, th.tau_K)
+    if left_out:
+        rows = sorted(rows + [f.record() for f in left_out], key=lambda r: r["face"])
+        mark_left_out(validity, left_out, integrals.represented_area)
 
     t = time.perf_counter()
     prov["units"] = inp.units
@@ -917,11 +957,16 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         for m in ("a_flat", "a_single", "a_elliptic", "a_saddle"):
             validity[m].evidence["threshold_band"] = band
     points = sum(r["points"] for r in rows)
+    if left_out:
+        warnings_left_out = ["face(s) %s NOT EVALUATED: %s" % (",".join(str(f.number) for f in left_out),
+                                                               "; ".join(f.reason for f in left_out))]
+    else:
+        warnings_left_out = []
     timings["total"] = time.perf_counter() - t0
     info = dict(inp.info)
     prov["reading"] = ("OpenCascade in a separate process; faces integrated from its plain records "
                        "(poles, knots, weights, p-curves)" if recorded else "OpenCascade in this process")
-    warnings = [ref.warning] if ref.warning else []
+    warnings = ([ref.warning] if ref.warning else []) + warnings_left_out
     progress(1.0, "done: %d quadrature points" % points)
     return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                       validity=validity, fields=fields, provenance=prov,
@@ -931,6 +976,16 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
                                "display_deflection": deflection,
                                "lref_sample_deflection": SAMPLE_DEFLECTION * size, "points_evaluated": points},
                       timings=timings, warnings=warnings)
+
+
+def merge_samples(parts):
+    """One display.sample_faces dict from several (triangle indices offset, arrays joined)."""
+    out, offset = {k: [] for k in parts[0]}, 0
+    for p in parts:
+        for k, v in p.items():
+            out[k].append(v + offset if k == "triangles" else v)
+        offset += len(p["points"])
+    return {k: np.concatenate(v) for k, v in out.items()}
 
 
 def probe_point(shape, face_number, point, lref, h_f=DEFAULT_HF, k_f=DEFAULT_KF):

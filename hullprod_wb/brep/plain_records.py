@@ -168,10 +168,10 @@ def edge_vertices(edges):
 def patch_count(face):
     """Knot-span patches of a face's surface (1 for other surface types): the order in which
     faces are handed to worker processes, largest first."""
-    surf = face.Surface
     try:
+        surf = face.Surface
         return max(1, (len(surf.getUKnots()) - 1) * (len(surf.getVKnots()) - 1))
-    except Exception:  # not a B-spline surface
+    except Exception:  # not a B-spline surface, or no surface
         return 1
 
 
@@ -267,9 +267,12 @@ def _frames(inp, with_fields, display_deflection, read_seconds):
 
 def display_mesh(face, deflection):
     """OpenCascade's display tessellation of face: its nodes (flat x, y, z doubles), its
-    triangles (flat indices) and the (u, v) nodes of its triangulation (flat u, v)."""
+    triangles (flat indices) and the (u, v) nodes of its triangulation (flat u, v); all
+    three empty for a face OpenCascade gives no triangulation (a face of zero area)."""
     pts, tris = face.tessellate(deflection)
     p, t, uv = array("d"), array("q"), array("d")
+    if not tris:
+        return p, t, uv
     for q in pts:
         p.extend((q.x, q.y, q.z))
     for tri in tris:

@@ -130,16 +130,33 @@ def hull_side(shape, rel_tol=1e-4, bb=None):
     return "in the centre plane"
 
 
+def occ_face_area(face):
+    """OpenCascade's area of face (BRepGProp), or None where OpenCascade cannot compute it
+    (it raises on some degenerate or nearly flat B-spline faces)."""
+    try:
+        area = float(face.Area)
+    except Exception:  # FreeCADError "Unknown exception while reading attribute 'Area'"
+        return None
+    return area if math.isfinite(area) else None
+
+
 def surface_type_name(face):
-    return type(face.Surface).__name__
+    try:
+        return type(face.Surface).__name__
+    except Exception:  # a face without a surface
+        return "no surface"
 
 
 def shape_provenance(shape, faces, areas=None, boxes=None):
     """Provenance dict of the assessed faces of shape (faces: list of (number, Part.Face);
-    areas: their OpenCascade areas when already known; boxes: shape_boxes taken before any
-    tessellation, else taken now)."""
+    areas: their OpenCascade areas when already known, None for a face whose area
+    OpenCascade cannot compute; boxes: shape_boxes taken before any tessellation, else
+    taken now). occ_area sums the faces whose area OpenCascade gives; the others are
+    listed in occ_area_failed_faces."""
     types = Counter(surface_type_name(f) for _, f in faces)
-    occ_area = float(sum(f.Area for _, f in faces) if areas is None else sum(areas))
+    areas = [occ_face_area(f) for _, f in faces] if areas is None else list(areas)
+    failed = [n for (n, _), a in zip(faces, areas) if a is None]
+    occ_area = float(sum(a for a in areas if a is not None))
     boxes = boxes or shape_boxes(shape, faces)
     bb = boxes[0]
     return {
@@ -148,10 +165,20 @@ def shape_provenance(shape, faces, areas=None, boxes=None):
         "surface_types": dict(types),
         "occ_area": occ_area,
         "occ_area_note": "FreeCAD Shape.Area at default precision (about 1e-4 relative); not the reference",
+        "occ_area_failed_faces": failed,
         "shells": len(shape.Shells),
         "solids": len(shape.Solids),
         "bounding_box": {"xmin": bb.XMin, "xmax": bb.XMax, "ymin": bb.YMin, "ymax": bb.YMax,
                          "zmin": bb.ZMin, "zmax": bb.ZMax},
         "hull_side": hull_side(shape, bb=bb),
-        "edges": edge_report(shape, faces, boxes),
+        "edges": safe_edge_report(shape, faces, boxes),
     }
+
+
+def safe_edge_report(shape, faces, boxes):
+    """edge_report, or the reason it could not be made (a face whose edges or box
+    OpenCascade cannot give, e.g. of non-finite geometry)."""
+    try:
+        return edge_report(shape, faces, boxes)
+    except Exception as exc:  # OpenCascade raises on invalid (non-finite) boxes and edges
+        return {"not_evaluated": "%s: %s" % (type(exc).__name__, " ".join(str(exc).split()))}

@@ -1,11 +1,15 @@
 """Input files: format from the extension, representation, content hash."""
+import functools
 import hashlib
 import os
 
 from .errors import InputError
+from .file_checks import check_file
 
 MESH_FORMATS = {".stl": "stl", ".obj": "obj", ".ply": "ply"}
 BREP_FORMATS = {".igs": "iges", ".iges": "iges", ".step": "step", ".stp": "step", ".brep": "brep"}
+#: FreeCAD documents: one of their objects is assessed (document_input).
+DOCUMENT_FORMATS = {".fcstd": "fcstd"}
 
 
 def sha256_file(path, chunk=1 << 20):
@@ -17,9 +21,12 @@ def sha256_file(path, chunk=1 << 20):
 
 
 def describe_file(path):
-    """Check that path is a readable, non-empty file of a known format.
+    """Check that path is a readable, non-empty file of a known format whose structure is
+    whole (file_checks.check_file: an InputError naming what is missing, before any reader
+    sees the file).
 
-    Returns dict(path, sha256, format, representation, size_bytes).
+    Returns dict(path, sha256, format, representation, size_bytes, and declared: what the
+    file declares, e.g. declared_faces, when its format declares it).
     """
     if not isinstance(path, (str, os.PathLike)):
         raise InputError("expected a file path, got %r" % (path,))
@@ -33,11 +40,24 @@ def describe_file(path):
         fmt, rep = MESH_FORMATS[ext], "mesh"
     elif ext in BREP_FORMATS:
         fmt, rep = BREP_FORMATS[ext], "brep"
+    elif ext in DOCUMENT_FORMATS:
+        fmt, rep = DOCUMENT_FORMATS[ext], "document"
     else:
-        known = ", ".join(sorted(set(MESH_FORMATS) | set(BREP_FORMATS)))
+        known = ", ".join(sorted(set(MESH_FORMATS) | set(BREP_FORMATS)) + [".FCStd"])
         raise InputError("unknown input format '%s' for %s (known: %s)" % (ext or "no extension", path, known))
     size = os.path.getsize(path)
     if size == 0:
         raise InputError("input file is empty: %s" % path)
-    return {"path": os.path.abspath(path), "sha256": sha256_file(path), "format": fmt,
+    info = {"path": os.path.abspath(path), "sha256": sha256_file(path), "format": fmt,
             "representation": rep, "size_bytes": size}
+    declared = checked_structure(info["path"], fmt, size, os.path.getmtime(path))
+    if declared:
+        info["declared"] = dict(declared)
+    return info
+
+
+@functools.lru_cache(maxsize=64)
+def checked_structure(path, fmt, size, mtime):
+    """file_checks.check_file of path, once for the same path, size and modification time
+    (describe_file is called before the reader and again by it)."""
+    return check_file(path, fmt)
