@@ -192,3 +192,31 @@ def test_threshold_band_is_the_area_near_the_thresholds():
         w[t] += 0.5 / 3
     assert out["K_band_area_fraction"] == pytest.approx(w[:4].sum() / w.sum(), rel=1e-12)
     assert out["H_band_area_fraction"] == 0.0
+
+
+def test_class_area_errors_of_a_cell_without_area_stay_bounded():
+    from hullprod_wb.brep.cubature.cells import _share_area_error
+    # a sliver cell whose area is zero or negative in rounding, with class areas of 1e-16
+    Q = np.zeros((2, len(QUANTITIES)))
+    Q[:, 0] = [0.0, -1e-18]
+    Q[:, 8] = 1e-16
+    err = np.zeros_like(Q)
+    err[:, 0] = 1e-12
+    out = _share_area_error(err, Q)
+    assert np.all(np.isfinite(out)) and np.all(out[:, 5:] <= 1e-12)
+
+
+def test_disagreeing_refinements_qualify_a_metric_only_when_they_matter():
+    from hullprod_wb.brep.backend import _disagreeing
+    vals = {k: 1.0 for k in QUANTITIES}
+    faces = [_face(dict(vals), {k: 1e-7 for k in QUANTITIES}, {k: 1e-4 for k in QUANTITIES}) for _ in range(2)]
+    faces[0].number, faces[1].number = 1, 2
+    # face 2's two integrations differ by 1e-6 of int |K| (beyond their estimates), a hundredth
+    # of the total's tolerance (2e-4): no effect; by 1e-4: the metric is qualified
+    faces[1].disagreement = {"int_abs_K": [1.0, 1.0 + 1e-6]}
+    faces[0].disagreement = {}
+    assert _disagreeing(faces, "int_abs_K", "A_valid", 1e-4) == []
+    faces[1].disagreement = {"int_abs_K": [1.0, 1.0 + 1e-4]}
+    bad = _disagreeing(faces, "int_abs_K", "A_valid", 1e-4)
+    assert [b["face"] for b in bad] == [2]
+    assert _disagreeing(faces, "A_flat", "A_classified", 1e-4) == []

@@ -69,6 +69,8 @@ BUDGET_GROWTH = 4
 #: A face integrated again disagrees with its earlier integration when their values differ by
 #: more than this multiple of their summed error estimates: the estimates are not to be trusted.
 DISAGREEMENT_SAFETY = 1.0
+#: ... and a disagreement qualifies a metric when it exceeds this share of its total's tolerance.
+DISAGREEMENT_SHARE = 0.1
 #: Rounds of grading at knot-grid nodes where a face's refinement stalled.
 STALL_ROUNDS = 2
 #: Points per face for the pointwise cross-check against OpenCascade.
@@ -493,8 +495,6 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
             status = Status.VALID_STAR
         else:
             status = Status.VALID
-        if getattr(f, "disagreement", None) and status in (Status.VALID, Status.VALID_STAR):
-            status = Status.CAUTION
         rows.append({
             "face": f.number, "surface_type": f.surface_type, "evaluation": f.kind,
             "area": r.values["A"], "valid_area": r.values["A_valid"],
@@ -587,8 +587,8 @@ def metric_validity(faces, integrals, values, opts, history):
                                  "convergent improper integral: |K| is unbounded at %d degenerate point(s); the "
                                  "excluded |K| integral decays like r^%.2f" % (len(pw), min(pw)),
                                  "convergent_improper", rep, valid, evidence)
-        elif _disagreeing(faces, num, den):
-            bad = _disagreeing(faces, num, den)
+        elif _disagreeing(faces, num, den, rtol):
+            bad = _disagreeing(faces, num, den, rtol)
             evidence["disagreeing_refinements"] = bad
             rec = MetricValidity(Status.CAUTION, values[m],
                                  "face(s) %s: a finer integration differs from the earlier one by more than their "
@@ -621,14 +621,16 @@ def metric_validity(faces, integrals, values, opts, history):
     return out
 
 
-def _disagreeing(faces, num, den):
-    """Faces integrated again whose two integrations disagree (beyond their error estimates)
-    on the quantities of a metric (numerator num, denominator den), with both values."""
+def _disagreeing(faces, num, den, rtol):
+    """Faces integrated again whose two integrations disagree on the quantities of a metric
+    (numerator num, denominator den) beyond their error estimates, by more than
+    DISAGREEMENT_SHARE of the total's tolerance (_global_tolerance), with both values."""
     qs = {num, den} if den != "A_classified" else {num, "A_flat", "A_single", "A_elliptic", "A_saddle"}
+    tol = {q: _global_tolerance(faces, q, rtol) for q in qs}
     out = []
     for f in faces:
         d = getattr(f, "disagreement", None) or {}
-        hit = {q: d[q] for q in sorted(qs) if q in d}
+        hit = {q: d[q] for q in sorted(qs) if q in d and abs(d[q][1] - d[q][0]) > DISAGREEMENT_SHARE * tol[q]}
         if hit:
             out.append({"face": f.number, "values": hit})
     return out

@@ -96,9 +96,10 @@ def _row_sums(rows, values, n):
 def _share_area_error(err, Q):
     """err (n, 9) with the class areas' columns set to the area's error shared by each
     cell's class fractions (from its integrals Q (n, 9)): outside mixed cells a class area
-    is the area of the cell's one class."""
+    is the area of the cell's one class. A fraction is at most 1 (a cell of no area in
+    rounding, or a negative one, would otherwise divide by it)."""
     frac = Q[:, N_SMOOTH:] / np.maximum(Q[:, :1], 1e-300)
-    err[:, N_SMOOTH:] = err[:, :1] * np.abs(frac)
+    err[:, N_SMOOTH:] = err[:, :1] * np.minimum(np.abs(frac), 1.0)
     return err
 
 
