@@ -15,6 +15,35 @@ def faces_from_subelements(names):
     return faces or None
 
 
+def ignored_subelements(names):
+    """Sub-element names that are not faces (edges, vertices): they select nothing to assess."""
+    return [str(n) for n in names or () if not _FACE.match(str(n).split(".")[-1])]
+
+
+#: A face is planar when it lies within this fraction of its own size of a plane.
+PLANAR_TOLERANCE = 1.0e-7
+
+
+def planar_faces(shape, faces=None):
+    """1-based numbers of the planar faces of shape among faces (None: all): planes, and
+    faces of other surface types (a flat B-spline deck) within PLANAR_TOLERANCE of their
+    bounding-box diagonal of a plane (OpenCascade's plane search, Shape.findPlane)."""
+    all_faces = shape.Faces
+    out = []
+    for n in faces or range(1, len(all_faces) + 1):
+        face = all_faces[n - 1]
+        if type(face.Surface).__name__ == "Plane":
+            out.append(n)
+            continue
+        try:
+            plane = face.findPlane(PLANAR_TOLERANCE * max(face.BoundBox.DiagonalLength, 1e-12))
+        except Exception:  # OpenCascade cannot search this face: not treated as planar
+            plane = None
+        if plane is not None:
+            out.append(n)
+    return out
+
+
 def sources_from_selection(selection):
     """[(object, faces or None)] from (object, sub-element names) pairs.
 
@@ -23,9 +52,12 @@ def sources_from_selection(selection):
     twice is merged (union of faces; whole object if selected whole once).
     """
     from .analysis import is_analysis
-    order, merged = [], {}
+    order, merged, faceless = [], {}, []
     for obj, subs in selection:
         if obj is None or is_analysis(obj) or not (hasattr(obj, "Shape") or hasattr(obj, "Mesh")):
+            continue
+        if hasattr(obj, "Shape") and not hasattr(obj, "Mesh") and not _has_faces(obj):
+            faceless.append(obj.Label)
             continue
         faces = faces_from_subelements(subs) if hasattr(obj, "Shape") else None
         if obj.Name not in merged:
@@ -33,9 +65,20 @@ def sources_from_selection(selection):
             merged[obj.Name] = faces
         elif merged[obj.Name] is not None:
             merged[obj.Name] = None if faces is None else sorted(set(merged[obj.Name]) | set(faces))
+    if not order and faceless:
+        raise InputError("%s has no faces (a sketch, wire or line): select a Part object with surfaces, "
+                         "faces of a Part, or a Mesh object" % ", ".join(faceless))
     if not order:
         raise InputError("select one or more Part objects, faces of a Part, or Mesh objects to analyse")
     return [(o, merged[o.Name]) for o in order]
+
+
+def _has_faces(obj):
+    shape = getattr(obj, "Shape", None)
+    try:
+        return shape is not None and not shape.isNull() and len(shape.Faces) > 0
+    except Exception:  # an invalid shape: let the assessment say why
+        return True
 
 
 def analyses_from_selection(objects):

@@ -4,6 +4,7 @@
 # Every check records into RESULT; the pytest side (tests/test_gui.py) asserts on it.
 import json
 import os
+import subprocess
 import sys
 import time
 import traceback
@@ -16,9 +17,16 @@ WORK = os.environ.get("HULLPROD_WORK", "/tmp/hullprod_gui_work")
 T0 = time.time()
 
 
+#: HULLPROD_GUI_ONLY=workbench,compare runs only the named checks (while working on them).
+ONLY = [n for n in os.environ.get("HULLPROD_GUI_ONLY", "").split(",") if n]
+
+
 def step(name):
     """Decorator: run a check, record its result dict or its traceback."""
     def wrap(func):
+        if ONLY and name not in ONLY:
+            RESULT["steps"][name] = {"skipped": "not selected (HULLPROD_GUI_ONLY)"}
+            return func
         t = time.time()
         try:
             RESULT["steps"][name] = func() or {"ok": True}
@@ -115,6 +123,15 @@ def window_shot(name):
     path = os.path.join(SHOTS, name + ".png")
     pix.save(path)
     return path
+
+
+def wait_for(cond, seconds):
+    """Run the event loop until cond() or seconds passed; returns cond()."""
+    end = time.time() + seconds
+    while not cond() and time.time() < end:
+        QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
+        time.sleep(0.005)
+    return cond()
 
 
 def quick_quadrature(p):
@@ -427,15 +444,15 @@ def _():
     bad = p.run()
     p.lref_edit.setText("1.0")
     count = len(doc.Objects)
-    # Cancel from the panel while the run reports progress (what Cancel/Esc does).
-    orig = p._on_progress
-
-    def cancel_on_first(fraction, message):
-        orig(fraction, message)
-        p.reject()
-    p._on_progress = cancel_on_first
-    cancelled = p.run()
+    # Cancel (the panel's button, or Esc) while the run reports progress.
+    p.advanced.setChecked(True)
+    p.rtol_edit.setText("1e-9")  # a run far longer than the wait for its first progress
+    p.depth_spin.setValue(12)
+    p.start()
+    wait_for(lambda: p.running is None or p.processes[p.running].last_progress is not None, 30)
+    p.reject()
     msg = p.message.text()
+    cancelled = p.made
     FreeCADGui.Control.closeDialog()
     errors = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
     # Deleting an analysis from the tree shows its hidden source again (when it was the last).
@@ -462,6 +479,143 @@ def _():
             "objects_unchanged": len(doc.Objects) == count, "cancel_message": msg, "compare_error": compare_err,
             "deleted": deleted, "source_shown_after_delete": source_shown, "other_analyses": len(others),
             "RunProgress": RunProgress.__name__}
+
+
+
+def render_clock():
+    """A Coin callback in the 3D view's scene that records the time of every redraw."""
+    from pivy import coin
+    times = []
+
+    def on_action(_, action):
+        if action.isOfType(coin.SoGLRenderAction.getClassTypeId()):
+            times.append(time.monotonic())
+    cb = coin.SoCallback()
+    cb.setCallback(on_action)
+    view().getSceneGraph().insertChild(cb, 0)
+    return times, lambda: view().getSceneGraph().removeChild(cb)
+
+
+def open_hull(fname, docname):
+    import Part
+    path = os.path.join(SHARED, "brep", fname)
+    if not (SHARED and os.path.isfile(path)):
+        return None
+    doc = FreeCAD.newDocument(docname)
+    src = doc.addObject("Part::Feature", docname)
+    src.Shape = Part.read(path)
+    doc.recompute()
+    return src
+
+
+@step("responsive_cancel")
+def _():
+    """A long run (KVLCC2, tight quadrature) with the view orbiting: redraws are timed;
+    then Cancel, and the assessment process must be gone within a second."""
+    from hullprod_wb.gui import analyze_panel, dialogs
+    src = open_hull("kvlcc2_half_overture.igs", "kvlcc2")
+    if src is None:
+        return {"skipped": "public hulls not present"}
+    hull_camera()
+    n_err = len([m for m in dialogs.LOG if m[0] == "error"])
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    p.advanced.setChecked(True)
+    p.rtol_edit.setText("1e-6")
+    p.depth_spin.setValue(6)
+    times, remove = render_clock()
+    turn = QtCore.QTimer()
+    turn.timeout.connect(lambda: view().setCameraOrientation(
+        FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), 3).multiply(view().getCameraOrientation())))
+    turn.start(50)
+    t0 = time.monotonic()
+    p.accept()  # OK
+    wait_for(lambda: p.running is None, 12)
+    running_after = p.running is not None
+    t1 = time.monotonic()
+    progress_text = p.message.text()
+    shot_running = window_shot("analyze_running")
+    pid = p.processes[p.running].proc.pid if running_after else None
+    tc = time.monotonic()
+    p.reject()  # Cancel
+    gone = None
+    while pid is not None and time.monotonic() - tc < 5:
+        try:
+            os.kill(pid, 0)
+            with open("/proc/%d/stat" % pid) as fh:
+                if fh.read().split()[2] == "Z":
+                    raise ProcessLookupError
+        except (ProcessLookupError, FileNotFoundError):
+            gone = time.monotonic() - tc
+            break
+        time.sleep(0.01)
+    turn.stop()
+    remove()
+    gaps = [b - a for a, b in zip([t0] + times, times + [t1]) if a >= t0 and b <= t1 + 1e-9]
+    shot_cancel = window_shot("analyze_cancelled")
+    msg = p.message.text()
+    FreeCADGui.Control.closeDialog()
+    made = [o for o in src.Document.Objects if getattr(o, "Source", None) == src]
+    FreeCAD.closeDocument(src.Document.Name)
+    return {"run_seconds": round(t1 - t0, 2), "still_running": running_after, "redraws": len(times),
+            "max_gap": max(gaps) if gaps else None, "progress_text": progress_text,
+            "cancel_seconds": gone, "message": msg, "created": len(made),
+            "errors": [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:],
+            "png_running": shot_running, "png_cancelled": shot_cancel}
+
+
+def cli_seconds(path):
+    """Wall time of `./hullprod analyze path` of this checkout, and its exit code."""
+    root = os.path.dirname(RESULT["package"])
+    env = dict(os.environ)
+    env.pop("PYTHONHOME", None)
+    t = time.perf_counter()
+    r = subprocess.run([os.path.join(root, "hullprod"), "analyze", path], env=env, capture_output=True, text=True)
+    return time.perf_counter() - t, r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
+
+
+@step("gui_vs_cli")
+def _():
+    """GUI time of Analyze (OK pressed until the analysis is made and coloured) against
+    `./hullprod analyze` on shared hulls, all faces, default settings; the two alternate
+    (a command-line run before each GUI run) so that both see the same machine."""
+    from hullprod_wb.gui import analyze_panel, dialogs
+    out = {}
+    for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1)):
+        src = open_hull(fname, fname.split("_")[0])
+        if src is None:
+            out[fname] = {"skipped": "public hulls not present"}
+            continue
+        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None}
+        for _ in range(runs):
+            seconds, code, last = cli_seconds(os.path.join(SHARED, "brep", fname))
+            if code != 0:
+                rec["cli_error"] = "exit %d: %s" % (code, last)
+            rec["cli_seconds"].append(seconds)
+            n_err = len([m for m in dialogs.LOG if m[0] == "error"])
+            FreeCADGui.Selection.clearSelection()
+            FreeCADGui.Selection.addSelection(src)
+            FreeCADGui.runCommand("HullProd_Analyze")
+            p = analyze_panel.LAST_PANEL
+            wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)  # the user reads the panel
+            rec["proposal"] = p.auto_radio.text()
+            made = p.run()
+            errs = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
+            FreeCADGui.Control.closeDialog()
+            if errs or not made:
+                rec["errors"] += errs or ["no analysis made"]
+                break
+            rec["seconds"].append(p.run_seconds)
+            rec.setdefault("timelines", []).append(getattr(p, "timeline", None))
+            rec["I_D"] = made[0].I_D
+            rec["lref"] = made[0].LrefUsed
+            for a in made:
+                src.Document.removeObject(a.Name)
+        FreeCAD.closeDocument(src.Document.Name)
+        out[fname] = rec
+    return out
 
 
 @step("real_hull")
