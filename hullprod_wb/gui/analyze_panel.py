@@ -20,6 +20,8 @@ from .qt import QtCore, QtGui, QtWidgets
 LAST_PANEL = None
 #: Interval of the timer that reads the assessment processes (ms).
 POLL_MS = 40
+#: The panel offers the whole shape's span when it differs from the selected faces' by more.
+WHOLE_SPAN_NOTE = 1e-3
 
 
 def _float_edit(value, tip, chars=12):
@@ -191,7 +193,7 @@ class AnalyzePanel:
         if not self.lref_edit.text():
             self.lref_edit.setText("%.6g" % proc.lref)
         faces = self.sources[0][1]
-        if faces and proc.lref_whole and abs(proc.lref_whole - proc.lref) > 1e-9 * proc.lref_whole:
+        if faces and proc.lref_whole and abs(proc.lref_whole - proc.lref) > WHOLE_SPAN_NOTE * proc.lref_whole:
             u = _units(self.sources[0][0])
             self.whole_note.setText("<small>The automatic L_ref is the span of the selected faces only "
                                     "(%.6g %s); the whole shape spans %.6g %s.</small>"
