@@ -134,6 +134,17 @@ def wait_for(cond, seconds):
     return cond()
 
 
+def screen_shot(name):
+    """The main window as the X server shows it (3D view, navigation cube and all)."""
+    FreeCADGui.Selection.clearSelection()
+    mw = FreeCADGui.getMainWindow()
+    process(200)
+    pix = QtGui.QGuiApplication.primaryScreen().grabWindow(mw.winId())
+    path = os.path.join(SHOTS, name + ".png")
+    pix.save(path)
+    return path
+
+
 def quick_quadrature(p):
     """BRep quadrature through the panel's advanced settings (order 6, rtol 2e-4, depth 4:
     not the defaults, so the test sees them reach the analysis object)."""
@@ -180,8 +191,7 @@ def _():
     return {"active": FreeCADGui.activeWorkbench().name(), "toolbars": bars,
             "has_menu": any("HullProd" in m for m in menus), "commands": {n: n in listed for n in names},
             "toolbar_actions": len([x for x in actions if x]),
-            "icons": {n: not FreeCADGui.getIcon(n).isNull() if hasattr(FreeCADGui, "getIcon") else None
-                      for n in ("HullProd_Analyze",)}}
+            "icons": {n: not FreeCADGui.getIcon(n).isNull() for n in ("HullProd_Analyze", "preferences-hullprod")}}
 
 
 @step("analyze_wigley")
@@ -210,10 +220,13 @@ def _():
     texts = {"proposal": p.auto_radio.text(), "method": p.method_label.text(),
              "advanced_enabled": p.advanced.isEnabled()}
     made = p.run()
+    selected_after = [o.Name for o in FreeCADGui.Selection.getSelection()]
     FreeCADGui.Control.closeDialog()
     a = made[0]
     STATE["a_wigley"] = a
     hull_camera()
+    texts["selected_after"] = selected_after
+    texts["precision_types"] = [a.getTypeIdOfProperty(n) for n in ("Hf", "Kf", "QuadratureRtol")]
     return {"panel_shown": bool(shown), "no_selection_error": [m[2] for m in no_sel], **texts,
             "quadrature": [a.QuadratureOrder, a.QuadratureRtol, a.QuadratureMaxDepth],
             "status": a.Status, "representation": a.Representation, "lref": a.LrefUsed,
@@ -233,6 +246,7 @@ def _():
         FreeCADGui.runCommand(cmd)
         process(30)
         rec = colour_check(a)
+        rec["selected_after"] = [o.Name for o in FreeCADGui.Selection.getSelection()]
         rec["mode"] = a.ViewObject.ColorMap
         rec["png"] = shot(name)
         out[mode] = rec
@@ -288,13 +302,28 @@ def _():
     p.detail_button.setChecked(False)
     p.set_map("Classes")
     legend_after_click = p.legend_widget.legend.title
+    class_entries = [t for _, t in p.legend_widget.legend.entries]
+    bar = FreeCADGui.getMainWindow().findChild(QtWidgets.QToolBar, "HullProd")
+    process(700)  # FreeCAD updates the commands' enabled state on a timer
+    enabled_while_open = {act.text(): act.isEnabled() for act in bar.actions() if act.text()}
+    p.set_map("Developability")
+    scale_before = [a.ViewObject.ScaleRange, a.ViewObject.ScaleType]
+    p.set_scale(index=3, linear=False)  # the preset 'fixed 1 to 10 000'
+    fixed_ticks = [t for _, t in p.legend_widget.legend.ticks]
+    p.set_scale(index=0, linear=True)
+    linear_title = p.legend_widget.legend.title
+    p.set_scale(index=0, linear=False)
+    texts = {"areas": p.areas_label.text(), "units_row": dict(p.provenance_rows).get("units"),
+             "reason_scrolls": p.signature_table.horizontalScrollBar().isVisible()}
     p.set_map("Developability")
     path = window_shot("validity_panel")
     FreeCADGui.Control.closeDialog()
     return {"rows": cells, "status_colors": [r["color"] for r in p.rows],
             "provenance": [k for k, _ in p.provenance_rows], "face_rows": getattr(p, "face_rows", []),
             "json_copied": copied == a.ResultJSON and clip == a.ResultJSON, "tree_top": tree_top,
-            "legend_after_click": legend_after_click, "png": path}
+            "legend_after_click": legend_after_click, "png": path, "class_entries": class_entries,
+            "enabled_while_open": enabled_while_open, "scale_before": scale_before, "fixed_ticks": fixed_ticks,
+            "linear_title": linear_title, **texts}
 
 
 @step("probe_wigley")
@@ -318,13 +347,17 @@ def _():
         r = panel.pick_at(pos)
         if r is not None:
             break
+    process(50)
     path = shot("wigley_probe")
     window_shot("probe_panel")
     rows = panel.table.rowCount()
+    headers = [panel.table.horizontalHeaderItem(j).text() for j in range(panel.table.columnCount())]
+    marker_before = a.ViewObject.Proxy.marker_sep.getNumChildren()
     FreeCADGui.Control.closeDialog()
     process(50)
     return {"result": r, "rows": rows, "tried": tried, "target": [pt.x, pt.y, pt.z], "png": path,
-            "callback_removed": probe.ACTIVE is None}
+            "callback_removed": probe.ACTIVE is None, "headers": headers, "marker_before": marker_before,
+            "marker_after": a.ViewObject.Proxy.marker_sep.getNumChildren()}
 
 
 @step("mesh_analysis")
@@ -353,6 +386,12 @@ def _():
     FreeCADGui.Selection.addSelection(a)
     FreeCADGui.runCommand("HullProd_ShowDevelopability")
     cols = colour_check(a)
+    from hullprod_wb.gui import dialogs
+    n_msg = len(dialogs.LOG)
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.runCommand("HullProd_ShowPlates")
+    plates = {"messages": [m[2] for m in dialogs.LOG[n_msg:]], "map": a.ViewObject.ColorMap}
+    FreeCADGui.Selection.addSelection(a)
     FreeCADGui.runCommand("HullProd_Probe")
     from hullprod_wb.app import analysis_fields
     f = analysis_fields(a)
@@ -360,7 +399,7 @@ def _():
     r = probe.ACTIVE.probe(a, f.points[tri].mean(axis=0))
     FreeCADGui.Control.closeDialog()
     return {"status": a.Status, "representation": a.Representation, "advanced_enabled": adv,
-            "colors": cols, "probe": r, "unchanged": fingerprint(m) == before}
+            "colors": cols, "probe": r, "unchanged": fingerprint(m) == before, "plates": plates}
 
 
 @step("face_selection")
@@ -375,15 +414,88 @@ def _():
     lateral = [i + 1 for i, f in enumerate(cyl.Shape.Faces) if "Cylinder" in type(f.Surface).__name__][0]
     FreeCADGui.Selection.clearSelection()
     FreeCADGui.Selection.addSelection(cyl, "Face%d" % lateral)
+    FreeCADGui.Selection.addSelection(cyl, "Edge1")  # a stray edge: named, not assessed
     FreeCADGui.runCommand("HullProd_Analyze")
     p = analyze_panel.LAST_PANEL
+    wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)
+    ignored = p.ignored_label.text() if p.ignored_label.isVisible() or p.ignored_label.text() else ""
+    whole = {"note": p.whole_note.text(), "button": p.whole_button.text(), "shown": not p.whole_note.isHidden()}
+    window_shot("analyze_face_selection")
     made = p.run()
     FreeCADGui.Control.closeDialog()
     a = made[0]
     out = {"lateral": lateral, "faces": list(a.Faces), "faces_used": list(a.FacesUsed),
-           "face_count": len(cyl.Shape.Faces), "a_single": [a.a_single, a.a_single_Status]}
+           "face_count": len(cyl.Shape.Faces), "a_single": [a.a_single, a.a_single_Status],
+           "ignored": ignored, "whole": whole, "lref_selected": a.LrefUsed}
     doc.removeObject(a.Name)
+    # the whole cylinder with its two planar caps left out by the checkbox
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(cyl)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    out["planar_text"] = p.planar_check.text()
+    p.planar_check.setChecked(True)
+    made = p.run()
+    FreeCADGui.Control.closeDialog()
+    a = made[0]
+    doc_json = json.loads(a.ResultJSON)
+    out.update(planar_faces_used=list(a.FacesUsed), planar_recorded=doc_json["input"].get("planar_faces_left_out"),
+               planar_property=a.SkipPlanarFaces)
+    doc.removeObject(a.Name)
+    # a line (no faces) is refused before a panel opens
+    from hullprod_wb.gui import dialogs
+    import Part
+    line = doc.addObject("Part::Feature", "Line")
+    line.Shape = Part.LineSegment(FreeCAD.Vector(0, 0, 0), FreeCAD.Vector(1, 0, 0)).toShape()
+    doc.recompute()
+    before = analyze_panel.LAST_PANEL
+    n_err = len(dialogs.LOG)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(line)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    out["line_messages"] = [m[2] for m in dialogs.LOG[n_err:]]
+    out["line_panel_opened"] = analyze_panel.LAST_PANEL is not before
+    doc.removeObject(line.Name)
     cyl.ViewObject.Visibility = False
+    return out
+
+
+@step("legend_layout")
+def _():
+    """The 3D colour bar in full view, clear of the navigation cube, at two window sizes."""
+    from hullprod_wb.gui.legend import legend_to
+    a = STATE["a_wigley"]
+    a.ViewObject.ColorMap = "Developability"
+    legend_to([a])
+    hull_camera()
+    mw = FreeCADGui.getMainWindow()
+    grp = FreeCAD.ParamGet("User parameter:BaseApp/Preferences/View")
+    cube = grp.GetInt("NaviWidgetSize", 132)
+    corner = grp.GetInt("CornerNaviCube", 1)  # 0 top left, 1 top right, 2 bottom left, 3 bottom right
+    from hullprod_wb.gui.legend import overlay_box_pixels
+    out = {}
+    for w, h in ((1600, 1000), (1280, 720)):
+        mw.showNormal()
+        mw.resize(w, h)
+        process(300)
+        widget = mw.findChild(QtWidgets.QMdiArea).activeSubWindow().widget()
+        vw, vh = widget.width(), widget.height()
+        rec = {"view": [vw, vh], "cube": cube, "corner": corner}
+        for mode in ("Developability", "Classes", "Signed"):
+            a.ViewObject.ColorMap = mode
+            process(50)
+            box = overlay_box_pixels(a.ViewObject.Proxy.legend, vw, vh)
+            cx0 = 0 if corner in (0, 2) else vw - cube
+            cy0 = 0 if corner in (0, 1) else vh - cube
+            overlaps = not (box[2] <= cx0 or box[0] >= cx0 + cube or box[3] <= cy0 or box[1] >= cy0 + cube)
+            rec[mode] = {"box": [round(b, 1) for b in box], "inside": box[0] >= 0 and box[1] >= 0 and box[2] <= vw
+                         and box[3] <= vh, "overlaps_cube": overlaps}
+        a.ViewObject.ColorMap = "Developability"
+        process(50)
+        rec["png"] = screen_shot("legend_%dx%d" % (w, h))
+        out["%dx%d" % (w, h)] = rec
+    mw.resize(1500, 950)
+    process(100)
     return out
 
 
@@ -620,11 +732,9 @@ def _():
 
 @step("real_hull")
 def _():
-    """A public BRep hull through the GUI; HULLPROD_GUI_FULL=1 takes DTMB 5415 (faces 1, 2,
-    L_ref = L_pp = 5720 mm; minutes), otherwise the one-face WaveBEM Wigley (seconds)."""
-    full = os.environ.get("HULLPROD_GUI_FULL") == "1"
-    name, fname, faces, lref = (("dtmb5415", "dtmb5415_half_overture.igs", ["Face1", "Face2"], "5720") if full
-                                else ("wigley_wavebem", "wigley_half_wavebem.iges", None, None))
+    """A public BRep hull through the GUI: DTMB 5415, its two hull faces selected in the
+    3D view (not the transom), L_ref = L_pp = 5720 mm."""
+    name, fname, faces, lref = "dtmb5415", "dtmb5415_half_overture.igs", ["Face1", "Face2"], "5720"
     brep = os.path.join(SHARED, "brep", fname)
     if not (SHARED and os.path.isfile(brep)):
         return {"skipped": "public hulls not present"}
@@ -634,27 +744,27 @@ def _():
     src = doc.addObject("Part::Feature", name)
     src.Shape = Part.read(brep)
     doc.recompute()
+    hull_camera()
     before = fingerprint(src)
     FreeCADGui.Selection.clearSelection()
-    if faces:
-        FreeCADGui.Selection.addSelection(src, faces)  # the two hull faces, not the transom
-    else:
-        FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.Selection.addSelection(src, faces)  # the two hull faces, not the transom
     FreeCADGui.runCommand("HullProd_Analyze")
     p = analyze_panel.LAST_PANEL
+    wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)
     proposal = p.auto_radio.text()
-    if lref:
-        p.explicit_radio.setChecked(True)
-        p.lref_edit.setText(lref)
-    if not full:
-        quick_quadrature(p)
+    whole_note = p.whole_note.text() if not p.whole_note.isHidden() else ""
+    window_shot("%s_analyze_faces" % name)
+    p.explicit_radio.setChecked(True)
+    p.lref_edit.setText(lref)
     t = time.time()
     made = p.run()
     seconds = time.time() - t
     FreeCADGui.Control.closeDialog()
     a = made[0]
     hull_camera()
-    out = {"hull": name, "proposal": proposal, "faces": list(a.FacesUsed), "face_count": len(src.Shape.Faces),
+    STATE["a_real"] = a
+    out = {"hull": name, "proposal": proposal, "whole_note": whole_note, "faces": list(a.FacesUsed),
+           "face_count": len(src.Shape.Faces),
            "selected": faces, "status": a.Status, "seconds": round(seconds, 2), "lref": a.LrefUsed,
            "values": {m: [getattr(a, m), getattr(a, m + "_Status")] for m in
                       ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single", "a_elliptic", "a_saddle")},
@@ -694,8 +804,27 @@ def _():
     FreeCADGui.Selection.addSelection(b)
     FreeCADGui.runCommand("HullProd_ShowClasses")
     cls = dict(colour_check(b), png=shot("dtmb5415_mesh_classes"))
+    STATE["b_real"] = b
     return {"status": b.Status, "I_D": [b.I_D, b.I_D_Status], "developability": dev, "classes": cls,
             "unchanged": fingerprint(m) == before}
+
+
+@step("compare_real")
+def _():
+    """The native DTMB 5415 (two faces, L_ref = L_pp) against its coarse mesh (automatic L_ref)."""
+    if "a_real" not in STATE or "b_real" not in STATE:
+        return {"skipped": "public hulls not present"}
+    from hullprod_wb.gui import compare_panel
+    a, b = STATE["a_real"], STATE["b_real"]
+    FreeCAD.setActiveDocument(b.Document.Name)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(b)
+    p = compare_panel.show_compare_panel([a, b])
+    process(200)
+    win = window_shot("dtmb5415_compare")
+    out = {"flags": p.cmp["flags"], "window": win}
+    FreeCADGui.Control.closeDialog()
+    return out
 
 
 @step("save_reload_gui")
@@ -714,6 +843,15 @@ def _():
     rec = colour_check(b)
     out = {"I_D_same": b.I_D == i_d, "vp_class": type(vp).__name__, "colors": rec,
            "map": b.ViewObject.ColorMap}
+    from hullprod_wb.gui import validity_panel
+    b.ViewObject.Visibility = False
+    vpanel = validity_panel.show_validity_panel(b)
+    vpanel.set_map("Signed")
+    process(50)
+    out["after_map_button"] = {"visible": b.ViewObject.Visibility, "legend_on": [
+        o.Name for o in d2.Objects if "ShowLegend" in getattr(o.ViewObject, "PropertiesList", []) and o.ViewObject.ShowLegend],
+        "name": b.Name}
+    FreeCADGui.Control.closeDialog()
     FreeCAD.closeDocument(d2.Name)
     return out
 
