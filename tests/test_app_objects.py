@@ -304,6 +304,8 @@ def test_export_analysis(doc, tmp_path):
     with open(paths["csv"]) as fh:
         row = next(csv.DictReader(fh))
     assert float(row["I_D"]) == pytest.approx(a.I_D, rel=1e-12) and row["I_D_status"] == a.I_D_Status
+    # a FreeCAD object has no file: the row names it and carries the sha256 of its shape
+    assert row["input"].startswith("FreeCAD object %s (%s)" % (src.Name, src.Label)) and len(row["sha256"]) == 64
     root = ET.parse(paths["vtp"]).getroot()
     piece = root.find("PolyData/Piece")
     from hullprod_wb.app import analysis_fields

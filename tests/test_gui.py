@@ -107,6 +107,7 @@ def test_long_run_keeps_the_gui_responsive_and_cancels(gui):
     assert rec["cancel_seconds"] is not None and rec["cancel_seconds"] < 1.0, rec
     assert rec["message"].startswith("Cancelled"), rec["message"]
     assert rec["created"] == 0 and rec["errors"] == []
+    assert rec["proposal"].startswith("automatic: ") and "computing" not in rec["proposal"]  # arrived meanwhile
     assert_not_blank(rec["png_running"])
 
 

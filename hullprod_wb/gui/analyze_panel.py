@@ -213,9 +213,8 @@ class AnalyzePanel:
         for i, proc in enumerate(list(self.processes)):
             if proc is None or proc is not self.processes[i]:
                 continue
-            was_loading = proc.state == "loading"
             events = proc.poll()
-            if was_loading and proc.state != "loading":
+            if any(ev.get("event") == "loaded" or (ev.get("event") == "error" and proc.load_error) for ev in events):
                 self._on_loaded(i)
             if i == self.running:
                 for ev in events:
@@ -315,8 +314,8 @@ class AnalyzePanel:
             made = make_analysis(obj, faces=faces, skip_planar=self.skip_planar and bool(self.planar[i]),
                                  assessment=(a, proc.seconds or 0.0), **self.kw)
         except WorkerFailed as exc:
-            import FreeCAD
-            FreeCAD.Console.PrintError("HullProd: internal error in the assessment of %s: %s\n" % (obj.Label, exc))
+            import FreeCAD  # the traceback goes to the log, for a bug report
+            FreeCAD.Console.PrintLog("HullProd: internal error in the assessment of %s: %s\n" % (obj.Label, exc))
             self.errors.append(str(exc).splitlines()[0])
             dialogs.error("analysis of %s failed" % obj.Label, "internal error: %s" % str(exc).splitlines()[0])
         except Exception as exc:  # the input's fault: a clear message, never a crash

@@ -133,7 +133,7 @@ class ValidityPanel(CloseOnlyPanel):
         t.horizontalHeader().setSectionResizeMode(3, QtWidgets.QHeaderView.Stretch)
         t.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
         t.resizeRowsToContents()
-        t.setMinimumHeight(30 * (len(METRICS) + 1))
+        t.setMinimumHeight(t.horizontalHeader().height() + sum(t.rowHeight(i) for i in range(t.rowCount())) + 6)
         self.signature_table = t
         return t
 
@@ -142,8 +142,8 @@ class ValidityPanel(CloseOnlyPanel):
         rep, valid = ig.get("represented_area") or 0.0, ig.get("valid_area") or 0.0
         share = 100.0 * valid / rep if rep else float("nan")
         ev = self.doc["validity"]["I_D"].get("evidence", {})
-        ev_text = ", ".join("%s = %s" % (k, v) for k, v in list(ev.items())[:6]
-                            if not isinstance(v, (dict, list)))
+        ev_text = "; ".join("%s = %s" % (k, wording.format_value(v) if isinstance(v, float) else v)
+                            for k, v in list(ev.items())[:6] if not isinstance(v, (dict, list)))
         units = self.obj.Units or ("mesh units" if self.obj.Representation == "mesh" else "")
         lab = QtWidgets.QLabel("Represented area %s, valid area %s (%.2f %%).<br>"
                                "Evidence (I_D): %s" % (area_text(rep, units), area_text(valid, units), share,
@@ -155,13 +155,13 @@ class ValidityPanel(CloseOnlyPanel):
     def _maps(self):
         box = QtWidgets.QGroupBox("Colour map on the hull")
         v = QtWidgets.QVBoxLayout(box)
-        h = QtWidgets.QHBoxLayout()
+        h = QtWidgets.QGridLayout()  # two by two: fits a narrow combo view
         self.map_buttons = {}
-        for mode in colormaps.MAPS:
+        for k, mode in enumerate(colormaps.MAPS):
             b = QtWidgets.QPushButton(mode)
             b.setCheckable(True)
             b.clicked.connect(lambda checked=False, m=mode: self.set_map(m))
-            h.addWidget(b)
+            h.addWidget(b, k // 2, k % 2)
             self.map_buttons[mode] = b
         v.addLayout(h)
         if self.obj.Representation != "brep":
@@ -178,9 +178,11 @@ class ValidityPanel(CloseOnlyPanel):
     def _scale_row(self):
         """Scale of the developability and signed maps: a range (percentiles, from k_f, or a
         fixed preset) and linear or logarithmic; stored in the view properties."""
-        h = QtWidgets.QHBoxLayout()
-        h.addWidget(QtWidgets.QLabel("Scale:"))
+        h = QtWidgets.QGridLayout()
+        h.addWidget(QtWidgets.QLabel("Scale:"), 0, 0)
         self.scale_combo = QtWidgets.QComboBox()
+        self.scale_combo.setSizeAdjustPolicy(QtWidgets.QComboBox.AdjustToMinimumContentsLengthWithIcon)
+        self.scale_combo.setMinimumContentsLength(12)
         self.scale_choices = [("percentiles %g-%g (default)" % (colormaps.LOW_PERCENTILE, colormaps.HIGH_PERCENTILE),
                                "Percentile", None), ("k_f to 99.5th percentile", "From k_f", None)]
         self.scale_choices += [("fixed " + name, "Fixed", (lo, hi)) for name, lo, hi in colormaps.SCALE_PRESETS]
@@ -199,8 +201,9 @@ class ValidityPanel(CloseOnlyPanel):
         self.linear_check.setChecked(getattr(vobj, "ScaleType", "") == "Linear")
         self.scale_combo.currentIndexChanged.connect(lambda *_: self.set_scale())
         self.linear_check.toggled.connect(lambda *_: self.set_scale())
-        h.addWidget(self.scale_combo, 1)
-        h.addWidget(self.linear_check)
+        h.addWidget(self.scale_combo, 0, 1)
+        h.addWidget(self.linear_check, 1, 1)
+        h.setColumnStretch(1, 1)
         return h
 
     def set_scale(self, index=None, linear=None):
@@ -299,7 +302,10 @@ class ValidityPanel(CloseOnlyPanel):
             rows.append(("warning", w))
         self.provenance_rows = rows
         for k, v in rows:
-            lab = QtWidgets.QLabel(str(v))
+            text = str(v)
+            if k == "sha256" and len(text) == 64:  # a hex digest does not wrap: two halves
+                text = text[:32] + "\n" + text[32:]
+            lab = QtWidgets.QLabel(text)
             lab.setWordWrap(True)
             lab.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
             form.addRow(k, lab)

@@ -420,7 +420,6 @@ def _():
     wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)
     ignored = p.ignored_label.text() if p.ignored_label.isVisible() or p.ignored_label.text() else ""
     whole = {"note": p.whole_note.text(), "button": p.whole_button.text(), "shown": not p.whole_note.isHidden()}
-    window_shot("analyze_face_selection")
     made = p.run()
     FreeCADGui.Control.closeDialog()
     a = made[0]
@@ -648,6 +647,7 @@ def _():
     running_after = p.running is not None
     t1 = time.monotonic()
     progress_text = p.message.text()
+    proposal_while_running = p.auto_radio.text()
     shot_running = window_shot("analyze_running")
     pid = p.processes[p.running].proc.pid if running_after else None
     tc = time.monotonic()
@@ -673,7 +673,7 @@ def _():
     FreeCAD.closeDocument(src.Document.Name)
     return {"run_seconds": round(t1 - t0, 2), "still_running": running_after, "redraws": len(times),
             "max_gap": max(gaps) if gaps else None, "progress_text": progress_text,
-            "cancel_seconds": gone, "message": msg, "created": len(made),
+            "cancel_seconds": gone, "message": msg, "created": len(made), "proposal": proposal_while_running,
             "errors": [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:],
             "png_running": shot_running, "png_cancelled": shot_cancel}
 
