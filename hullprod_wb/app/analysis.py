@@ -174,7 +174,7 @@ def assessed_faces(obj):
     faces = list(obj.Faces) or None
     if not getattr(obj, "SkipPlanarFaces", False) or not hasattr(obj.Source, "Shape"):
         return faces, []
-    from .selection import planar_faces
+    from .planar import planar_faces
     planar = planar_faces(obj.Source.Shape, faces)
     chosen = [f for f in (faces or range(1, len(obj.Source.Shape.Faces) + 1)) if f not in planar]
     if not chosen:

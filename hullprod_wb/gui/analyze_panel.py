@@ -11,7 +11,7 @@ import time
 from ..app import preferences
 from ..app.analysis import make_analysis, record_planar
 from ..app.assessment_process import AssessmentProcess, WorkerFailed
-from ..app.selection import planar_faces
+from ..app.planar import planar_faces
 from ..core.errors import InputError
 from . import dialogs
 from .qt import QtCore, QtGui, QtWidgets
@@ -116,11 +116,14 @@ class AnalyzePanel:
         self.planar_check.setToolTip("faces that lie in a plane are not assessed; the result records them")
         self.planar = [planar_faces(o.Shape, f) if hasattr(o, "Shape") else [] for o, f in self.sources]
         n_planar = sum(len(p) for p in self.planar)
+        self.planar_label = QtWidgets.QLabel()
+        self.planar_label.setWordWrap(True)
         if n_planar:
-            self.planar_check.setText("Leave out the %d planar face(s) (deck, transom): %s" % (
-                n_planar, ", ".join("Face%d" % n for p in self.planar for n in p)))
+            self.planar_label.setText("<small>planar: %s</small>" % ", ".join("Face%d" % n for p in self.planar for n in p))
+        self.planar_label.setVisible(bool(n_planar))
         self.planar_check.setEnabled(bool(n_planar))
         lay.addWidget(self.planar_check)
+        lay.addWidget(self.planar_label)
 
         self.advanced = QtWidgets.QGroupBox("Advanced: BRep quadrature")
         self.advanced.setCheckable(True)

@@ -432,7 +432,7 @@ def _():
     FreeCADGui.Selection.addSelection(cyl)
     FreeCADGui.runCommand("HullProd_Analyze")
     p = analyze_panel.LAST_PANEL
-    out["planar_text"] = p.planar_check.text()
+    out["planar_text"] = QtGui.QTextDocumentFragment.fromHtml(p.planar_label.text()).toPlainText()
     p.planar_check.setChecked(True)
     made = p.run()
     FreeCADGui.Control.closeDialog()
