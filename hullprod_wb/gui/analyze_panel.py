@@ -20,6 +20,8 @@ from .qt import QtCore, QtGui, QtWidgets
 LAST_PANEL = None
 #: Interval of the timer that reads the assessment processes (ms).
 POLL_MS = 40
+#: Least time between two repaints of the progress (seconds).
+UI_INTERVAL = 0.25
 #: The panel offers the whole shape's span when it differs from the selected faces' by more.
 WHOLE_SPAN_NOTE = 1e-3
 
@@ -220,12 +222,26 @@ class AnalyzePanel:
             if any(ev.get("event") == "loaded" or (ev.get("event") == "error" and proc.load_error) for ev in events):
                 self._on_loaded(i)
             if i == self.running:
-                for ev in events:
-                    if ev.get("event") == "progress":
-                        self.bar.setValue(int(1000 * max(0.0, min(1.0, ev["fraction"]))))
-                        self.message.setText("%s: %s" % (self.sources[i][0].Label, ev["message"]))
+                last = [ev for ev in events if ev.get("event") == "progress"][-1:]
+                if last:
+                    self._show_progress(i, last[0])
                 if proc.finished:
                     self._finish(i)
+
+    def _show_progress(self, i, ev):
+        """The latest progress on the bar and the line below, repainted only when they
+        change and at most every UI_INTERVAL seconds (the GUI's process leaves the CPUs to
+        the assessment)."""
+        now = time.monotonic()
+        value = int(1000 * max(0.0, min(1.0, ev["fraction"])))
+        text = "%s: %s" % (self.sources[i][0].Label, ev["message"])
+        if now - getattr(self, "_shown_at", 0.0) < UI_INTERVAL and value < 1000:
+            return
+        self._shown_at = now
+        if value != self.bar.value():
+            self.bar.setValue(value)
+        if text != self.message.text():
+            self.message.setText(text)
 
     # -- values -------------------------------------------------------------------------------
     def values(self):
