@@ -304,6 +304,8 @@ def test_export_analysis(doc, tmp_path):
     with open(paths["csv"]) as fh:
         row = next(csv.DictReader(fh))
     assert float(row["I_D"]) == pytest.approx(a.I_D, rel=1e-12) and row["I_D_status"] == a.I_D_Status
+    # a FreeCAD object has no file: the row names it and carries the sha256 of its shape
+    assert row["input"].startswith("FreeCAD object %s (%s)" % (src.Name, src.Label)) and len(row["sha256"]) == 64
     root = ET.parse(paths["vtp"]).getroot()
     piece = root.find("PolyData/Piece")
     from hullprod_wb.app import analysis_fields
@@ -420,3 +422,101 @@ def test_icons_small_valid_svg():
         path = os.path.join(ICON_DIR, n + ".svg")
         assert os.path.getsize(path) < 10 * 1024, path
         assert ET.parse(path).getroot().tag.endswith("svg")
+
+
+def test_compare_flags_reference_lengths_that_differ(doc):
+    """Two automatic analyses whose L_ref differ (a hull and the same hull twice as long):
+    I_D scales with L_ref^2, so the comparison says so."""
+    from hullprod_wb.app import compare_analyses, make_analysis
+    from hullprod_wb.examples.builtin import WIGLEY_L
+    a = make_analysis(wigley_feature(doc), order=4, rtol=1e-3, max_depth=3)
+    b = make_analysis(wigley_feature(doc, "Long", L=2 * WIGLEY_L), order=4, rtol=1e-3, max_depth=3)
+    flags = [f for f in compare_analyses([a, b])["flags"] if f.startswith("L_ref differs")]
+    assert len(flags) == 1 and "factor 2" in flags[0] and "L_ref^2" in flags[0]
+
+
+def test_console_mode_records_the_object(doc):
+    """Without the GUI the assessment runs in this process; its input record names the
+    object and carries the sha256 of the shape's BRep text (what an export writes)."""
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.assessment_process import object_record
+    src = wigley_feature(doc)
+    a = make_analysis(src, lref=1.0, order=4, rtol=1e-3, max_depth=3)
+    inp = json.loads(a.ResultJSON)["input"]
+    assert inp["name"] == src.Label and inp["format"] == "freecad-shape" and inp["path"] is None
+    assert inp["sha256"] == object_record(src)["sha256"] and len(inp["sha256"]) == 64
+    assert a.InputSha256 == inp["sha256"]
+
+
+def test_assessment_process_gives_the_in_process_signature(doc):
+    """The GUI's assessment process (a fresh interpreter given the shape's BRep text) gives
+    the signature of an assessment in this process, and its automatic L_ref proposal is the
+    L_ref the run then uses."""
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.assessment_process import AssessmentProcess
+    src = wigley_feature(doc)
+    here = make_analysis(src, order=4, rtol=1e-3, max_depth=3)
+    proc = AssessmentProcess(src)
+    try:
+        proc.run({"order": 4, "rtol": 1e-3, "max_depth": 3})
+        a = proc.wait()
+    finally:
+        proc.close()
+    assert proc.lref == a.reference_length.value == pytest.approx(here.LrefUsed, rel=1e-12)
+    for m in ("I_D", "I_D_plus", "I_D_minus", "a_elliptic", "a_saddle"):
+        assert a.validity[m].value == pytest.approx(getattr(here, m), rel=1e-9, abs=1e-12), m
+    assert a.input["name"] == src.Label and not os.path.exists(proc.folder)
+
+
+def test_assessment_process_cancel_ends_it_at_once(doc):
+    """cancel() during a long run ends the process (and what it started) within a second."""
+    import time
+    from hullprod_wb.app.assessment_process import AssessmentProcess
+    proc = AssessmentProcess(wigley_feature(doc))
+    try:
+        proc.run({"order": 8, "rtol": 1e-12, "max_depth": 14})
+        t = time.monotonic()
+        while proc.last_progress is None and time.monotonic() - t < 60:
+            proc.poll(0.05)
+        assert proc.state == "running", proc.error
+        t = time.monotonic()
+        proc.cancel()
+        assert proc.proc.poll() is not None and time.monotonic() - t < 1.0
+        assert proc.state == "cancelled"
+        while living_in_group(proc.proc.pid) and time.monotonic() - t < 1.0:  # SIGKILL takes effect
+            time.sleep(0.01)
+        assert living_in_group(proc.proc.pid) == []  # nothing it started runs on, within a second
+    finally:
+        proc.close()
+
+
+def living_in_group(pgid):
+    """Processes of process group pgid that are not zombies (/proc)."""
+    out = []
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            with open("/proc/%s/stat" % pid) as fh:
+                fields = fh.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pgid and fields[0] != "Z":
+            out.append(int(pid))
+    return out
+
+
+def test_skip_planar_faces_recorded(doc):
+    """SkipPlanarFaces leaves out the planar caps of a cylinder and records them."""
+    import Part
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.planar import planar_faces
+    cyl = doc.addObject("Part::Feature", "Cyl")
+    cyl.Shape = Part.makeCylinder(0.02, 0.1)
+    doc.recompute()
+    lateral = [i + 1 for i, f in enumerate(cyl.Shape.Faces) if "Cylinder" in type(f.Surface).__name__]
+    assert planar_faces(cyl.Shape) == sorted(set(range(1, 4)) - set(lateral))
+    a = make_analysis(cyl, skip_planar=True, order=4, rtol=1e-3, max_depth=3)
+    inp = json.loads(a.ResultJSON)["input"]
+    assert list(a.FacesUsed) == lateral and inp["planar_faces_left_out"] == planar_faces(cyl.Shape)
+    assert a.a_single == pytest.approx(1.0, abs=1e-9)

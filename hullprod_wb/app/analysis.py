@@ -35,15 +35,17 @@ PROPERTIES = [
     ("App::PropertyLink", "Source", "Source", "Part or Mesh object assessed (never modified)", False),
     ("App::PropertyIntegerList", "Faces", "Source",
      "BRep faces to assess, FreeCAD numbering (Face3 -> 3); empty: all faces", False),
+    ("App::PropertyBool", "SkipPlanarFaces", "Source",
+     "BRep: leave out planar faces (deck, transom, flat plates closing the shape)", False),
     ("App::PropertyEnumeration", "LrefMode", "Parameters",
      "automatic: principal-axis span of the surface; explicit: LrefExplicit", False),
     ("App::PropertyFloat", "LrefExplicit", "Parameters",
      "explicit reference length L_ref in the source's length units (e.g. L_pp)", False),
-    ("App::PropertyFloat", "Hf", "Parameters", "dimensionless mean-curvature tolerance h_f (tau_H = h_f/L_ref)", False),
-    ("App::PropertyFloat", "Kf", "Parameters",
+    ("App::PropertyPrecision", "Hf", "Parameters", "dimensionless mean-curvature tolerance h_f (tau_H = h_f/L_ref)", False),
+    ("App::PropertyPrecision", "Kf", "Parameters",
      "dimensionless Gaussian-curvature tolerance k_f (tau_K = k_f/L_ref^2)", False),
     ("App::PropertyInteger", "QuadratureOrder", "Parameters", "BRep: Gauss-Legendre order per direction", False),
-    ("App::PropertyFloat", "QuadratureRtol", "Parameters", "BRep: local relative tolerance of the quadrature", False),
+    ("App::PropertyPrecision", "QuadratureRtol", "Parameters", "BRep: local relative tolerance of the quadrature", False),
     ("App::PropertyInteger", "QuadratureMaxDepth", "Parameters", "BRep: maximum refinement depth", False),
     ("App::PropertyString", "Status", "Results", "ok | not computed | cancelled: ... | error: ...", True),
     ("App::PropertyString", "Representation", "Results", "brep (native surfaces) or mesh (triangles)", True),
@@ -53,8 +55,8 @@ PROPERTIES = [
     ("App::PropertyString", "LrefUsedMode", "Results", "how the L_ref used was chosen", True),
     ("App::PropertyString", "LrefMethod", "Results", "method of the L_ref used", True),
     ("App::PropertyString", "LrefWarning", "Results", "plausibility warning on L_ref, if any", True),
-    ("App::PropertyFloat", "TauH", "Results", "mean-curvature threshold tau_H = h_f / L_ref", True),
-    ("App::PropertyFloat", "TauK", "Results", "Gaussian-curvature threshold tau_K = k_f / L_ref^2", True),
+    ("App::PropertyPrecision", "TauH", "Results", "mean-curvature threshold tau_H = h_f / L_ref", True),
+    ("App::PropertyPrecision", "TauK", "Results", "Gaussian-curvature threshold tau_K = k_f / L_ref^2", True),
     ("App::PropertyFloat", "RepresentedArea", "Results", "area of everything represented", True),
     ("App::PropertyFloat", "ValidArea", "Results", "area of the valid Gaussian-curvature domain A_K", True),
     ("App::PropertyIntegerList", "FacesUsed", "Results", "BRep faces that were assessed", True),
@@ -108,6 +110,7 @@ class HullProdAnalysis:
         self.Type = TYPE
         self.assessment = None
         self.progress = None
+        self.pending = None
         self._fields_cache = (None, None)
         obj.Proxy = self
         add_properties(obj)
@@ -120,6 +123,7 @@ class HullProdAnalysis:
         self.Type = (state or {}).get("Type", TYPE)
         self.assessment = None
         self.progress = None
+        self.pending = None
         self._fields_cache = (None, None)
         return None
 
@@ -136,14 +140,21 @@ class HullProdAnalysis:
 
     # -- recompute --------------------------------------------------------------------------
     def execute(self, obj):
+        pending, self.pending = getattr(self, "pending", None), None
+        if pending is not None:  # computed for these settings by an assessment process
+            assessment, seconds = pending
+            self.assessment = assessment
+            store_results(obj, assessment, seconds)
+            return
         progress = self.progress or RunProgress("HullProd: %s" % obj.Label)
         try:
             assessment, seconds = run_assessment(obj, progress)
         except Cancelled as exc:
+            # not an error of the document: the previous results stay, the status says so
             obj.Status = "cancelled: %s (results shown are from the previous run, if any)" % _flatten(exc)
             import FreeCAD
             FreeCAD.Console.PrintWarning("HullProd: %s: %s\n" % (obj.Label, obj.Status))
-            raise
+            return
         except Exception as exc:
             obj.Status = "error: %s" % _flatten(exc)
             import FreeCAD
@@ -158,25 +169,67 @@ class HullProdAnalysis:
         pass
 
 
+def assessed_faces(obj):
+    """(faces to assess or None for all, planar faces left out) of obj's settings."""
+    faces = list(obj.Faces) or None
+    if not getattr(obj, "SkipPlanarFaces", False) or not hasattr(obj.Source, "Shape"):
+        return faces, []
+    from .planar import planar_faces
+    planar = planar_faces(obj.Source.Shape, faces)
+    chosen = [f for f in (faces or range(1, len(obj.Source.Shape.Faces) + 1)) if f not in planar]
+    if not chosen:
+        raise InputError("every face of %s is planar: nothing is left to assess without planar faces"
+                         % obj.Source.Label)
+    return chosen, planar
+
+
+def assessment_options(obj, rep):
+    """api.assess keyword arguments of obj's settings (no source, no progress)."""
+    kw = {"lref": obj.LrefExplicit if obj.LrefMode == "explicit" else None,
+          "h_f": float(obj.Hf), "k_f": float(obj.Kf)}
+    if rep == "brep":
+        kw.update(order=int(obj.QuadratureOrder), rtol=float(obj.QuadratureRtol),
+                  max_depth=int(obj.QuadratureMaxDepth))
+    return kw
+
+
 def run_assessment(obj, progress):
-    """Assess obj.Source with obj's parameters. Returns (Assessment, seconds)."""
+    """Assess obj.Source with obj's parameters. Returns (Assessment, seconds).
+
+    With the GUI up the assessment runs in an assessment process (app.worker, the command
+    line's code and speed; the GUI's own process only waits); in console mode here.
+    """
     from .. import api
     src = obj.Source
     if src is None:
         raise InputError("the analysis %s has no source: set its Source to a Part or Mesh object" % obj.Label)
     rep = api.representation_of(src)
-    kw = {"lref": obj.LrefExplicit if obj.LrefMode == "explicit" else None,
-          "h_f": obj.Hf, "k_f": obj.Kf, "progress": progress}
-    if rep == "brep":
-        kw.update(faces=list(obj.Faces) or None, order=int(obj.QuadratureOrder),
-                  rtol=float(obj.QuadratureRtol), max_depth=int(obj.QuadratureMaxDepth))
-    elif list(obj.Faces):
+    if rep != "brep" and list(obj.Faces):
         raise InputError("Faces selects BRep faces, but the source %s is a triangle mesh: clear Faces"
                          % src.Label)
+    faces, planar = assessed_faces(obj) if rep == "brep" else (None, [])
+    kw = assessment_options(obj, rep)
     t0 = time.perf_counter()
     progress(0.0, "assessing %s (%s)" % (src.Label, rep))
-    assessment = api.assess(src, **kw)
+    import FreeCAD
+    from .assessment_process import describe_object_input, object_record, run_in_process
+    if FreeCAD.GuiUp:
+        assessment = run_in_process(src, faces, kw, progress)
+    else:
+        if rep == "brep":
+            kw["faces"] = faces
+        assessment = describe_object_input(api.assess(src, progress=progress, **kw), object_record(src))
+    record_planar(assessment, planar)
     return assessment, time.perf_counter() - t0
+
+
+def record_planar(assessment, planar):
+    """Note in the input record the planar faces left out (SkipPlanarFaces)."""
+    if planar:
+        assessment.input["planar_faces_left_out"] = list(planar)
+        assessment.warnings.append("planar faces left out of the assessment: %s"
+                                   % ", ".join("Face%d" % f for f in planar))
+    return assessment
 
 
 def _num(x):
@@ -298,14 +351,17 @@ def _check_source(source):
 
 
 def make_analysis(source, faces=None, lref=None, doc=None, h_f=None, k_f=None, order=None, rtol=None,
-                  max_depth=None, label=None, recompute=True, progress=None):
+                  max_depth=None, label=None, recompute=True, progress=None, skip_planar=False,
+                  assessment=None):
     """Create a HullProdAnalysis of source and compute it (the macro equivalent of Analyze).
 
     source: Part or Mesh document object (never modified); faces: 1-based face numbers of
     a Part (None: all); lref: explicit L_ref in the source's units (None: automatic);
     h_f, k_f, order, rtol, max_depth: None takes the HullProd preferences. progress:
-    optional callable(fraction, message). When the run fails or is cancelled the new
-    object is removed and the error (InputError, Cancelled, ...) is raised.
+    optional callable(fraction, message); skip_planar: leave out planar faces;
+    assessment: (Assessment, seconds) already computed for exactly these settings (an
+    assessment process of the GUI), stored instead of a run. When the run fails or is
+    cancelled the new object is removed and the error (InputError, Cancelled, ...) is raised.
     """
     _check_source(source)
     doc = doc or source.Document
@@ -320,6 +376,7 @@ def make_analysis(source, faces=None, lref=None, doc=None, h_f=None, k_f=None, o
             doc.removeObject(obj.Name)
             raise InputError("face numbers start at 1 (Face1), got %s" % faces)
     obj.Faces = list(faces or [])
+    obj.SkipPlanarFaces = bool(skip_planar)
     if lref is not None:
         obj.LrefMode = "explicit"
         obj.LrefExplicit = float(lref)
@@ -329,7 +386,8 @@ def make_analysis(source, faces=None, lref=None, doc=None, h_f=None, k_f=None, o
     obj.QuadratureRtol = float(defaults["rtol"] if rtol is None else rtol)
     obj.QuadratureMaxDepth = int(defaults["max_depth"] if max_depth is None else max_depth)
     attach_view_provider(obj)
-    if recompute:
+    obj.Proxy.pending = assessment
+    if recompute or assessment is not None:
         try:
             recompute_analysis(obj, progress)
         except Exception:

@@ -34,6 +34,12 @@ def comparison_flags(objs):
     differs(lambda o: o.LrefUsedMode, "different L_ref modes")
     differs(lambda o: "h_f=%g k_f=%g" % (o.Hf, o.Kf), "different class thresholds")
     differs(lambda o: o.Units or "?", "different length units")
+    lrefs = {o.Label: o.LrefUsed for o in objs}
+    if min(lrefs.values()) > 0 and max(lrefs.values()) > (1 + LREF_CONVENTION_TOL) * min(lrefs.values()):
+        flags.append("L_ref differs by a factor %.3g (%s): I_D scales with L_ref^2, so the values are not "
+                     "comparable; give both the same explicit L_ref"
+                     % (max(lrefs.values()) / min(lrefs.values()),
+                        ", ".join("%s %.6g %s" % (k, v, o.Units) for (k, v), o in zip(lrefs.items(), objs))))
     ratios = {o.Label: _ratio(o) for o in objs}
     finite = [r for r in ratios.values() if not math.isnan(r)]
     if finite and (max(finite) - min(finite)) > LREF_CONVENTION_TOL * max(finite):

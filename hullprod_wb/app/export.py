@@ -17,6 +17,17 @@ def register_report_writer(name, func):
     REPORT_WRITERS[name] = func
 
 
+def csv_document(doc):
+    """doc with the input named for the one-row CSV: a FreeCAD object, which has no file
+    path, as 'FreeCAD object NAME (LABEL) in DOCUMENT'."""
+    inp = doc.get("input", {})
+    if inp.get("path") or not inp.get("name"):
+        return doc
+    where = " in %s" % inp["document"] if inp.get("document") else ""
+    named = dict(inp, path="FreeCAD object %s (%s)%s" % (inp.get("object", inp["name"]), inp["name"], where))
+    return dict(doc, input=named)
+
+
 def export_analysis(obj, folder, overwrite=False, formats=None):
     """Write obj's results into folder; returns name -> path.
 
@@ -40,7 +51,7 @@ def export_analysis(obj, folder, overwrite=False, formats=None):
         writers.write_json(paths["json"], doc)
     if "csv" in wanted:
         paths["csv"] = os.path.join(folder, "signature.csv")
-        writers.write_signature_csv(paths["csv"], doc)
+        writers.write_signature_csv(paths["csv"], csv_document(doc))
     if fields is not None and "vtp" in wanted:
         paths["vtp"] = os.path.join(folder, "fields.vtp")
         writers.write_vtp(paths["vtp"], fields)

@@ -15,6 +15,11 @@ def faces_from_subelements(names):
     return faces or None
 
 
+def ignored_subelements(names):
+    """Sub-element names that are not faces (edges, vertices): they select nothing to assess."""
+    return [str(n) for n in names or () if not _FACE.match(str(n).split(".")[-1])]
+
+
 def sources_from_selection(selection):
     """[(object, faces or None)] from (object, sub-element names) pairs.
 
@@ -23,9 +28,12 @@ def sources_from_selection(selection):
     twice is merged (union of faces; whole object if selected whole once).
     """
     from .analysis import is_analysis
-    order, merged = [], {}
+    order, merged, faceless = [], {}, []
     for obj, subs in selection:
         if obj is None or is_analysis(obj) or not (hasattr(obj, "Shape") or hasattr(obj, "Mesh")):
+            continue
+        if hasattr(obj, "Shape") and not hasattr(obj, "Mesh") and not _has_faces(obj):
+            faceless.append(obj.Label)
             continue
         faces = faces_from_subelements(subs) if hasattr(obj, "Shape") else None
         if obj.Name not in merged:
@@ -33,9 +41,20 @@ def sources_from_selection(selection):
             merged[obj.Name] = faces
         elif merged[obj.Name] is not None:
             merged[obj.Name] = None if faces is None else sorted(set(merged[obj.Name]) | set(faces))
+    if not order and faceless:
+        raise InputError("%s has no faces (a sketch, wire or line): select a Part object with surfaces, "
+                         "faces of a Part, or a Mesh object" % ", ".join(faceless))
     if not order:
         raise InputError("select one or more Part objects, faces of a Part, or Mesh objects to analyse")
     return [(o, merged[o.Name]) for o in order]
+
+
+def _has_faces(obj):
+    shape = getattr(obj, "Shape", None)
+    try:
+        return shape is not None and not shape.isNull() and len(shape.Faces) > 0
+    except Exception:  # an invalid shape: let the assessment say why
+        return True
 
 
 def analyses_from_selection(objects):

@@ -1,25 +1,38 @@
-"""Analyze task panel: L_ref (automatic proposal or explicit), h_f, k_f and, under
-'advanced', the BRep quadrature settings; runs make_analysis for each selected source with
-progress and cancellation."""
+"""Analyze task panel: L_ref (automatic or explicit), h_f, k_f, planar faces and, under
+'advanced', the BRep quadrature settings.
+
+Each source is assessed in an assessment process (app.assessment_process), started when
+the panel opens: it receives the shape, loads what the run needs and proposes the
+automatic L_ref by the run's own method. OK starts the runs; a Qt timer reads their
+progress, so the GUI stays responsive; Cancel ends the running process at once.
+"""
+import time
+
 from ..app import preferences
-from ..app.analysis import make_analysis
-from ..app.progress import RunProgress
-from ..app.reference import proposed_lref
+from ..app.analysis import make_analysis, record_planar
+from ..app.assessment_process import AssessmentProcess, WorkerFailed
+from ..app.planar import planar_faces
 from ..core.errors import InputError
-from ..core.progress import Cancelled
 from . import dialogs
 from .qt import QtCore, QtGui, QtWidgets
 
 #: The last panel opened (scripts and tests drive it).
 LAST_PANEL = None
+#: Interval of the timer that reads the assessment processes (ms).
+POLL_MS = 40
+#: Least time between two repaints of the progress (seconds).
+UI_INTERVAL = 0.25
+#: The panel offers the whole shape's span when it differs from the selected faces' by more.
+WHOLE_SPAN_NOTE = 1e-3
 
 
-def _float_edit(value, tip):
-    e = QtWidgets.QLineEdit("%g" % value)
+def _float_edit(value, tip, chars=12):
+    e = QtWidgets.QLineEdit("%.12g" % value)
     v = QtGui.QDoubleValidator(0.0, 1e300, 12, e)
     v.setNotation(QtGui.QDoubleValidator.ScientificNotation)
     e.setValidator(v)
     e.setToolTip(tip)
+    e.setMinimumWidth(e.fontMetrics().averageCharWidth() * chars + 16)
     return e
 
 
@@ -29,16 +42,25 @@ def _describe(obj, faces):
     return "%s (%s%s)" % (obj.Label, kind, part)
 
 
-class AnalyzePanel:
-    """Task panel. sources: [(object, faces or None)]."""
+def _units(obj):
+    return "mm" if hasattr(obj, "Shape") else "mesh units"
 
-    def __init__(self, sources):
+
+class AnalyzePanel:
+    """Task panel. sources: [(object, faces or None)]; ignored: sub-element names of the
+    selection that select nothing to assess (edges, vertices)."""
+
+    def __init__(self, sources, ignored=()):
         global LAST_PANEL
         LAST_PANEL = self
         self.sources = list(sources)
         self.created = []
         self.errors = []
-        self.running = None
+        self.running = None  # index of the source being assessed
+        self.queue = []
+        self.close_when_done = False
+        self.run_seconds = None
+        self.processes = [None] * len(self.sources)
         d = preferences.analysis_defaults()
         self.form = QtWidgets.QWidget()
         self.form.setWindowTitle("HullProd: analyse")
@@ -46,32 +68,42 @@ class AnalyzePanel:
         src = QtWidgets.QLabel("<b>Assess</b><br>" + "<br>".join(_describe(o, f) for o, f in self.sources))
         src.setWordWrap(True)
         lay.addWidget(src)
+        self.ignored_label = QtWidgets.QLabel()
+        self.ignored_label.setWordWrap(True)
+        if ignored:
+            self.ignored_label.setText("<small>Not assessed (only faces are): %s</small>"
+                                       % ", ".join(ignored))
+        self.ignored_label.setVisible(bool(ignored))
+        lay.addWidget(self.ignored_label)
 
         box = QtWidgets.QGroupBox("Reference length L_ref")
         g = QtWidgets.QGridLayout(box)
-        self.proposals = []
-        for obj, faces in self.sources:
-            try:
-                self.proposals.append(proposed_lref(obj, faces))
-            except InputError as exc:
-                self.proposals.append({"value": float("nan"), "method": str(exc), "units": ""})
-        p0 = self.proposals[0]
-        text = "; ".join("%.6g %s" % (p["value"], p["units"]) for p in self.proposals)
-        self.auto_radio = QtWidgets.QRadioButton("automatic: %s" % text)
-        self.auto_radio.setToolTip(p0["method"])
+        units = _units(self.sources[0][0])
+        self.auto_radio = QtWidgets.QRadioButton("automatic: computing...")
+        self.auto_radio.setToolTip("principal-axis span of the assessed surface (the run's own method)")
         self.explicit_radio = QtWidgets.QRadioButton("explicit (e.g. L_pp):")
-        self.lref_edit = _float_edit(p0["value"] if p0["value"] == p0["value"] else 1.0,
-                                     "L_ref in the source's length units (FreeCAD Part shapes: mm)")
+        self.lref_edit = _float_edit(1.0, "L_ref in the source's length units (FreeCAD Part shapes: mm)")
+        self.lref_edit.setText("")
+        self.lref_unit = QtWidgets.QLabel(units)
         self.auto_radio.setChecked(True)
         self.lref_edit.setEnabled(False)
         self.explicit_radio.toggled.connect(self.lref_edit.setEnabled)
-        method = QtWidgets.QLabel("<small>method: %s</small>" % p0["method"])
-        method.setWordWrap(True)
-        self.method_label = method
-        g.addWidget(self.auto_radio, 0, 0, 1, 2)
-        g.addWidget(method, 1, 0, 1, 2)
-        g.addWidget(self.explicit_radio, 2, 0)
-        g.addWidget(self.lref_edit, 2, 1)
+        self.method_label = QtWidgets.QLabel("<small>method: principal-axis span of the area-weighted "
+                                             "surface samples (paper eq:refs)</small>")
+        self.method_label.setWordWrap(True)
+        self.whole_note = QtWidgets.QLabel()
+        self.whole_note.setWordWrap(True)
+        self.whole_note.setVisible(False)
+        self.whole_button = QtWidgets.QPushButton("Use the whole shape's span")
+        self.whole_button.setVisible(False)
+        self.whole_button.clicked.connect(self.use_whole_span)
+        g.addWidget(self.auto_radio, 0, 0, 1, 3)
+        g.addWidget(self.method_label, 1, 0, 1, 3)
+        g.addWidget(self.whole_note, 2, 0, 1, 3)
+        g.addWidget(self.whole_button, 3, 0, 1, 3)
+        g.addWidget(self.explicit_radio, 4, 0)
+        g.addWidget(self.lref_edit, 4, 1)
+        g.addWidget(self.lref_unit, 4, 2)
         lay.addWidget(box)
 
         box = QtWidgets.QGroupBox("Curvature-class tolerances")
@@ -81,6 +113,19 @@ class AnalyzePanel:
         f.addRow("h_f", self.hf_edit)
         f.addRow("k_f", self.kf_edit)
         lay.addWidget(box)
+
+        self.planar_check = QtWidgets.QCheckBox("Leave out planar faces (deck, transom)")
+        self.planar_check.setToolTip("faces that lie in a plane are not assessed; the result records them")
+        self.planar = [planar_faces(o.Shape, f) if hasattr(o, "Shape") else [] for o, f in self.sources]
+        n_planar = sum(len(p) for p in self.planar)
+        self.planar_label = QtWidgets.QLabel()
+        self.planar_label.setWordWrap(True)
+        if n_planar:
+            self.planar_label.setText("<small>planar: %s</small>" % ", ".join("Face%d" % n for p in self.planar for n in p))
+        self.planar_label.setVisible(bool(n_planar))
+        self.planar_check.setEnabled(bool(n_planar))
+        lay.addWidget(self.planar_check)
+        lay.addWidget(self.planar_label)
 
         self.advanced = QtWidgets.QGroupBox("Advanced: BRep quadrature")
         self.advanced.setCheckable(True)
@@ -114,6 +159,89 @@ class AnalyzePanel:
         lay.addWidget(self.bar)
         lay.addWidget(self.message)
         lay.addStretch(1)
+        self.timer = QtCore.QTimer(self.form)
+        self.timer.setInterval(POLL_MS)
+        self.timer.timeout.connect(self.poll)
+        # the task view deletes the form when the panel closes, whichever way it closes
+        procs = self.processes
+        self.form.destroyed.connect(lambda *_: [p.close() for p in procs if p is not None])
+        for i in range(len(self.sources)):
+            self._start_process(i)
+        self.timer.start()
+
+    # -- assessment processes -----------------------------------------------------------------
+    def _start_process(self, i):
+        obj, faces = self.sources[i]
+        try:
+            self.processes[i] = AssessmentProcess(obj, faces)
+        except InputError as exc:
+            self.processes[i] = None
+            self.errors.append(str(exc))
+            self.message.setText(str(exc))
+
+    def _proposal_text(self):
+        parts = []
+        for (obj, _), proc in zip(self.sources, self.processes):
+            if proc is None or proc.lref is None:
+                parts.append("computing..." if proc is not None and proc.state == "loading" else "not available")
+            else:
+                parts.append("%.6g %s" % (proc.lref, _units(obj)))
+        return "automatic: " + "; ".join(parts)
+
+    def _on_loaded(self, i):
+        proc = self.processes[i]
+        self.auto_radio.setText(self._proposal_text())
+        if i != 0 or proc.lref is None:
+            if i == 0 and proc.load_error:
+                self.method_label.setText("<small>%s</small>" % proc.load_error)
+            return
+        if not self.lref_edit.text():
+            self.lref_edit.setText("%.6g" % proc.lref)
+        faces = self.sources[0][1]
+        if faces and proc.lref_whole and abs(proc.lref_whole - proc.lref) > WHOLE_SPAN_NOTE * proc.lref_whole:
+            u = _units(self.sources[0][0])
+            self.whole_note.setText("<small>The automatic L_ref is the span of the selected faces only "
+                                    "(%.6g %s); the whole shape spans %.6g %s.</small>"
+                                    % (proc.lref, u, proc.lref_whole, u))
+            self.whole_button.setText("Use the whole shape's span (%.6g %s)" % (proc.lref_whole, u))
+            self.whole_note.setVisible(True)
+            self.whole_button.setVisible(True)
+
+    def use_whole_span(self):
+        proc = self.processes[0]
+        if proc is not None and proc.lref_whole:
+            self.explicit_radio.setChecked(True)
+            self.lref_edit.setText("%.12g" % proc.lref_whole)
+
+    def poll(self):
+        """Timer: read every process's events; finish or start runs."""
+        for i, proc in enumerate(list(self.processes)):
+            if proc is None or proc is not self.processes[i]:
+                continue
+            events = proc.poll()
+            if any(ev.get("event") == "loaded" or (ev.get("event") == "error" and proc.load_error) for ev in events):
+                self._on_loaded(i)
+            if i == self.running:
+                last = [ev for ev in events if ev.get("event") == "progress"][-1:]
+                if last:
+                    self._show_progress(i, last[0])
+                if proc.finished:
+                    self._finish(i)
+
+    def _show_progress(self, i, ev):
+        """The latest progress on the bar and the line below, repainted only when they
+        change and at most every UI_INTERVAL seconds (the GUI's process leaves the CPUs to
+        the assessment)."""
+        now = time.monotonic()
+        value = int(1000 * max(0.0, min(1.0, ev["fraction"])))
+        text = "%s: %s" % (self.sources[i][0].Label, ev["message"])
+        if now - getattr(self, "_shown_at", 0.0) < UI_INTERVAL and value < 1000:
+            return
+        self._shown_at = now
+        if value != self.bar.value():
+            self.bar.setValue(value)
+        if text != self.message.text():
+            self.message.setText(text)
 
     # -- values -------------------------------------------------------------------------------
     def values(self):
@@ -132,68 +260,177 @@ class AnalyzePanel:
                    max_depth=self.depth_spin.value())
         return out
 
-    def _on_progress(self, fraction, message):
-        self.bar.setValue(int(1000 * max(0.0, min(1.0, fraction))))
-        self.message.setText(message)
-        QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
+    @staticmethod
+    def _options(kw, obj):
+        opts = {"lref": kw["lref"], "h_f": kw["h_f"], "k_f": kw["k_f"]}
+        if hasattr(obj, "Shape"):
+            opts.update(order=kw["order"], rtol=kw["rtol"], max_depth=kw["max_depth"])
+        return opts
 
     # -- run --------------------------------------------------------------------------------------
-    def run(self):
-        """Analyse every source; returns the analyses created. Errors go to dialogs.error."""
+    def start(self):
+        """Start assessing every source (one after the other); False on a bad setting."""
         if self.running is not None:
-            return []
+            return False
         try:
-            kw = self.values()
+            self.kw = self.values()
         except InputError as exc:
             dialogs.error("invalid setting", str(exc))
-            return []
-        import FreeCADGui
-        made = []
-        for obj, faces in self.sources:
-            self.running = RunProgress("HullProd: %s" % obj.Label, listener=self._on_progress)
-            try:
-                a = make_analysis(obj, faces=faces, progress=self.running, **kw)
-            except Cancelled:
-                self.message.setText("Cancelled: no analysis was created for %s." % obj.Label)
-                self.running = None
-                break
-            except Exception as exc:  # report, never crash the GUI
-                self.errors.append(str(exc))
-                dialogs.error("analysis of %s failed" % obj.Label, " ".join(str(exc).split()))
+            return False
+        self.skip_planar = self.planar_check.isChecked()
+        self.queue = list(range(len(self.sources)))
+        self.made = []
+        self.t_start = time.perf_counter()
+        self._next()
+        return True
+
+    def _next(self):
+        while self.queue:
+            i = self.queue.pop(0)
+            obj, faces = self.sources[i]
+            proc = self.processes[i]
+            if proc is None or proc.state not in ("loading", "loaded"):  # used or gone: a fresh one
+                if proc is not None:
+                    proc.close()
+                self._start_process(i)
+                proc = self.processes[i]
+            if proc is None:
                 continue
-            finally:
-                self.running = None
-            made.append(a)
+            if self.skip_planar and self.planar[i]:
+                chosen = [f for f in (faces or range(1, len(obj.Shape.Faces) + 1)) if f not in self.planar[i]]
+                if not chosen:
+                    self.errors.append("every face of %s is planar" % obj.Label)
+                    dialogs.error("analysis of %s" % obj.Label, "every face is planar: nothing is left to assess")
+                    continue
+                if chosen != (faces or list(range(1, len(obj.Shape.Faces) + 1))):
+                    proc.close()  # the process loaded other faces: a fresh one for these
+                    proc = self.processes[i] = AssessmentProcess(obj, chosen)
+            self.running = i
+            self.bar.setValue(0)
+            self.message.setText("%s: starting" % obj.Label)
+            proc.run(self._options(self.kw, obj))
+            return
+        self._all_done()
+
+    def _finish(self, i):
+        obj, faces = self.sources[i]
+        proc = self.processes[i]
+        self.running = None
+        if proc.state == "cancelled":
+            proc.close()
+            self.processes[i] = None
+            self.queue = []
+            self.message.setText("Cancelled: no analysis was created for %s." % obj.Label)
+            self.bar.setValue(0)
+            self._all_done(cancelled=True)
+            return
+        started = getattr(proc, "started_at", self.t_start)
+        self.timeline = {"process_seconds": proc.seconds, "noticed_after": time.perf_counter() - started,
+                         "done_after": getattr(proc, "done_at", float("nan")) - started}
+        try:
+            a = proc.result()
+            record_planar(a, self.planar[i] if self.skip_planar else [])
+            made = make_analysis(obj, faces=faces, skip_planar=self.skip_planar and bool(self.planar[i]),
+                                 assessment=(a, proc.seconds or 0.0), **self.kw)
+        except WorkerFailed as exc:
+            import FreeCAD  # the traceback goes to the log, for a bug report
+            FreeCAD.Console.PrintLog("HullProd: internal error in the assessment of %s: %s\n" % (obj.Label, exc))
+            self.errors.append(str(exc).splitlines()[0])
+            dialogs.error("analysis of %s failed" % obj.Label, "internal error: %s" % str(exc).splitlines()[0])
+        except Exception as exc:  # the input's fault: a clear message, never a crash
+            self.errors.append(str(exc))
+            dialogs.error("analysis of %s failed" % obj.Label, " ".join(str(exc).split()))
+        else:
+            self.made.append(made)
             if preferences.get("HideSourceOnAnalyze") and getattr(obj, "ViewObject", None) is not None:
                 obj.ViewObject.Visibility = False
+        finally:
+            proc.close()
+            self.processes[i] = None
+        self._next()
+
+    def _all_done(self, cancelled=False):
+        import FreeCADGui
+        made = getattr(self, "made", [])
         self.created += made
+        self.run_seconds = time.perf_counter() - self.t_start
+        if hasattr(self, "timeline"):
+            self.timeline["all_done"] = self.run_seconds
         if made:
-            from .commands import legend_to
+            from .legend import legend_to
             legend_to(made[-1:])
+            # nothing stays selected: the selection highlight would tint the colour map
             FreeCADGui.Selection.clearSelection()
-            FreeCADGui.Selection.addSelection(made[-1])
             view = getattr(FreeCADGui.ActiveDocument, "ActiveView", None)
             if view is not None and hasattr(view, "fitAll"):
                 view.fitAll()
-        return made
+            self.message.setText("Done: %s in %.1f s." % (", ".join(a.Label for a in made), self.run_seconds))
+            self.bar.setValue(1000)
+        if self.close_when_done and not cancelled and (made or not self.errors):
+            self.close_when_done = False
+            QtCore.QTimer.singleShot(0, lambda: self._close_and_show(made))
 
-    def accept(self):
-        """OK: run; the task view closes the panel when this returns True."""
-        made = self.run()
+    def _close_and_show(self, made):
+        import FreeCADGui
+        FreeCADGui.Control.closeDialog()
         if len(made) == 1:
             from .validity_panel import show_validity_panel
-            QtCore.QTimer.singleShot(0, lambda: show_validity_panel(made[0]))
-        return bool(made) or not self.errors
+            show_validity_panel(made[0])
+
+    def run(self, timeout=None):
+        """Assess every source and wait, the event loop running (macros and tests);
+        returns the analyses created. Errors go to dialogs.error."""
+        if not self.start():
+            return []
+        t = time.monotonic()
+        while self.running is not None:
+            QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
+            self.poll()
+            if timeout is not None and time.monotonic() - t > timeout:
+                self.cancel()
+            if self.running is not None:  # sleep in the wait for the process's next event
+                proc = self.processes[self.running]
+                if proc is not None:
+                    select_wait(proc, 0.02)
+        return list(self.made)
+
+    def cancel(self):
+        """End the running assessment now (no analysis is created for it)."""
+        if self.running is not None:
+            self.processes[self.running].cancel()
+            self.poll()
+
+    # -- task panel buttons ---------------------------------------------------------------------
+    def accept(self):
+        """OK: start the runs; the panel closes itself when they are done."""
+        if self.running is None:
+            self.close_when_done = self.start()
+        return False
 
     def reject(self):
-        """Cancel: stop a running analysis (panel stays open), otherwise close."""
+        """Cancel: stop a running analysis (the panel stays open, saying so), else close."""
         if self.running is not None:
-            self.running.cancel()
-            self.message.setText("Cancelling...")
+            self.cancel()
             return False
+        self.close()
         return True
 
+    def close(self):
+        self.timer.stop()
+        for proc in self.processes:
+            if proc is not None:
+                proc.close()
 
-def show_analyze_panel(sources):
+
+def select_wait(proc, seconds):
+    """Sleep until the process writes or seconds pass (the GUI's process takes no CPU)."""
+    import select
+    try:
+        select.select([proc.proc.stdout], [], [], seconds)
+    except (ValueError, OSError):  # closed meanwhile
+        pass
+
+
+def show_analyze_panel(sources, ignored=()):
     from .qt import show_task_panel
-    return show_task_panel(AnalyzePanel(sources))
+    return show_task_panel(AnalyzePanel(sources, ignored))

@@ -1,11 +1,14 @@
 """Colour maps of the analysis display (presentation only, numpy).
 
-Developability density: log10(|K| L_ref^2) on a sequential map, display range
-[log10 k_f, 99.5th percentile of the positive samples] (the paper's robust display range
-convention); values outside are saturated in the display only, invalid samples are grey.
+Developability density: |K| L_ref^2 on a sequential map. Its display range is a Scale:
+by default logarithmic between two percentiles of the samples above k_f (a robust range:
+the paper's convention takes log10 k_f and the 99.5th percentile), or a fixed range (the
+presets), linear or logarithmic; values outside are saturated in the display only.
 Signed: K L_ref^2 on a diverging map (saddle blue, |K L_ref^2| <= k_f white, elliptic
-red) with the same logarithmic magnitude range. Classes: one colour per curvature class.
-Plates (BRep): each face coloured by its own face-level I_D.
+red) with the same magnitude scale. Classes: one colour per curvature class, the legend
+in shares of area. Plates (BRep): each face coloured by its own face-level I_D, a zero
+included. Invalid samples (and faces without an established value) are mauve, a colour
+no map uses, so that shading never makes a flat or zero colour read as invalid.
 """
 from dataclasses import dataclass, field
 
@@ -13,10 +16,12 @@ import numpy as np
 
 MAPS = ("Developability", "Classes", "Signed", "Plates")
 
-#: Grey of invalid samples (outside the valid K domain).
-INVALID_RGB = (0.55, 0.55, 0.55)
-#: Curvature class colours, eq:curvature_classes order (invalid first).
-CLASS_RGB = {"invalid": INVALID_RGB, "flat": (0.93, 0.93, 0.86), "single": (0.36, 0.72, 0.38),
+#: Colour of invalid samples (outside the valid K domain): a mauve that no map uses and
+#: that stays a hue, not a grey, under shading.
+INVALID_RGB = (0.62, 0.30, 0.62)
+#: Curvature class colours, eq:curvature_classes order (invalid first); flat is a sand
+#: colour (a cream would shade to the grey of a dull surface).
+CLASS_RGB = {"invalid": INVALID_RGB, "flat": (0.97, 0.86, 0.52), "single": (0.36, 0.72, 0.38),
              "elliptic": (0.86, 0.26, 0.20), "saddle": (0.20, 0.42, 0.86)}
 CLASS_ORDER = ("invalid", "flat", "single", "elliptic", "saddle")
 
@@ -27,8 +32,26 @@ SEQUENTIAL = np.array([[0.00, 0.18, 0.10, 0.45], [0.25, 0.13, 0.45, 0.70], [0.50
 DIVERGING = np.array([[0.00, 0.12, 0.25, 0.70], [0.25, 0.45, 0.62, 0.92], [0.50, 0.97, 0.97, 0.97],
                       [0.75, 0.95, 0.55, 0.45], [1.00, 0.70, 0.08, 0.08]])
 
-#: Percentile of the positive samples used as the upper display limit.
-UPPER_PERCENTILE = 99.5
+#: Percentiles of the samples above k_f that bound the default (percentile) scale.
+LOW_PERCENTILE, HIGH_PERCENTILE = 10.0, 99.5
+#: Scale kinds of the view (ScaleRange): two percentiles, the paper's [k_f, P99.5], a fixed range.
+SCALE_RANGES = ("Percentile", "From k_f", "Fixed")
+SCALE_TYPES = ("Logarithmic", "Linear")
+#: Fixed ranges offered with one click (name, low, high) of |K| L_ref^2.
+SCALE_PRESETS = (("0.01 to 100", 1e-2, 1e2), ("1 to 10 000", 1.0, 1e4), ("0.1 to 1000", 0.1, 1e3))
+
+
+@dataclass
+class Scale:
+    """How values map to the colour ramp: range ('Percentile' | 'From k_f' | 'Fixed'),
+    kind ('Logarithmic' | 'Linear'), low/high of a fixed range, and the percentiles."""
+
+    range: str = "Percentile"
+    kind: str = "Logarithmic"
+    low: float = 1e-2
+    high: float = 1e2
+    low_percentile: float = LOW_PERCENTILE
+    high_percentile: float = HIGH_PERCENTILE
 
 
 @dataclass
@@ -56,79 +79,135 @@ def ramp(t, anchors=SEQUENTIAL):
     return out
 
 
-def log_range(q, k_f):
-    """(lo, hi) of log10 q for display: lo = log10 k_f, hi = 99.5th percentile of q > k_f."""
+def value_range(q, k_f, scale=None):
+    """(lo, hi) of the values q (>= 0) shown by the ramp under scale (default Scale())."""
+    scale = scale or Scale()
     q = np.asarray(q, float)
-    lo = float(np.log10(k_f))
     pos = q[np.isfinite(q) & (q > k_f)]
-    hi = float(np.percentile(np.log10(pos), UPPER_PERCENTILE)) if len(pos) else lo + 1.0
-    return lo, max(hi, lo + 1.0)
+    if scale.range == "Fixed":
+        lo, hi = float(scale.low), float(scale.high)
+    elif len(pos) == 0:
+        lo, hi = float(k_f), 10.0 * k_f
+    elif scale.range == "From k_f":
+        lo, hi = float(k_f), float(np.percentile(pos, HIGH_PERCENTILE))
+    else:
+        lo, hi = (float(v) for v in np.percentile(pos, [scale.low_percentile, scale.high_percentile]))
+    if scale.kind == "Linear" and scale.range != "Fixed":
+        lo = 0.0
+    if scale.kind == "Logarithmic":
+        lo = max(lo, 1e-300)
+        hi = max(hi, 10.0 * lo) if hi < 10.0 * lo and scale.range != "Fixed" else hi
+    if not hi > lo:
+        hi = lo + (1.0 if scale.kind == "Linear" else 10.0 * lo)
+    return lo, hi
 
 
-def _fmt_pow(x):
-    """Tick text of the value 10**x (a plain number, 3 significant digits)."""
-    v = 10.0 ** x
-    return "%.3g" % v if 1e-3 <= v < 1e5 else "%.2e" % v
+def scaled(q, lo, hi, kind):
+    """q mapped to [0, 1] (saturated) by the scale kind; NaN stays NaN."""
+    q = np.asarray(q, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if kind == "Linear":
+            t = (q - lo) / (hi - lo)
+        else:
+            t = (np.log10(np.maximum(q, lo)) - np.log10(lo)) / (np.log10(hi) - np.log10(lo))
+    return np.where(np.isfinite(q), np.clip(t, 0.0, 1.0), np.nan)
 
 
-def developability_colors(q_D, k_f):
-    """Colours of log10 q_D (q_D = |K| L_ref^2, eq:devfield) and the legend."""
+def _fmt(v):
+    """Tick text of a value (3 significant digits)."""
+    return "%.3g" % v if v == 0 or 1e-3 <= abs(v) < 1e5 else "%.2e" % v
+
+
+def _ticks(lo, hi, kind, n=5, fmt=_fmt):
+    s = np.linspace(0.0, 1.0, n)
+    vals = lo + s * (hi - lo) if kind == "Linear" else 10.0 ** (np.log10(lo) + s * (np.log10(hi) - np.log10(lo)))
+    return [(float(a), fmt(v)) for a, v in zip(s, vals)]
+
+
+def _scale_text(scale, lo, hi):
+    where = {"Percentile": "percentiles %g-%g of the samples above k_f" % (scale.low_percentile,
+                                                                        scale.high_percentile),
+             "From k_f": "k_f to the 99.5th percentile", "Fixed": "fixed range"}[scale.range]
+    return "%s scale %s to %s (%s); saturated outside" % (scale.kind.lower(), _fmt(lo), _fmt(hi), where)
+
+
+def developability_colors(q_D, k_f, scale=None):
+    """Colours of q_D = |K| L_ref^2 (eq:devfield) under scale, and the legend."""
+    scale = scale or Scale()
     q = np.asarray(q_D, float)
-    lo, hi = log_range(q, k_f)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (np.log10(np.where(q > 0, q, 10.0 ** lo)) - lo) / (hi - lo)
-    t = np.where(np.isfinite(q), t, np.nan)
-    ticks = [(float(s), _fmt_pow(lo + s * (hi - lo))) for s in np.linspace(0, 1, 5)]
+    lo, hi = value_range(q, k_f, scale)
+    t = scaled(q, lo, hi, scale.kind)
     n_bad = int(np.sum(~np.isfinite(q)))
-    return ramp(t), Legend("|K| L_ref^2 (log scale)", "gradient", SEQUENTIAL, ticks,
-                           note="dimensionless; saturated outside [%s, %s] in the display only; grey: "
-                                "invalid (%d samples)" % (_fmt_pow(lo), _fmt_pow(hi), n_bad))
+    title = "|K| L_ref^2 (%s)" % ("log scale" if scale.kind == "Logarithmic" else "linear scale")
+    return ramp(t), Legend(title, "gradient", SEQUENTIAL, _ticks(lo, hi, scale.kind),
+                           note="dimensionless; %s; mauve: invalid (%d samples)" % (_scale_text(scale, lo, hi), n_bad))
 
 
-def signed_colors(K, valid, lref, k_f):
-    """Colours of K L_ref^2 on a diverging log-magnitude map (eq:devsignedfields)."""
+def signed_colors(K, valid, lref, k_f, scale=None):
+    """Colours of K L_ref^2 on a diverging map of its magnitude under scale
+    (eq:devsignedfields); |K L_ref^2| <= k_f is white."""
+    scale = scale or Scale()
     q = np.where(np.asarray(valid, bool), np.asarray(K, float) * lref ** 2, np.nan)
-    lo, hi = log_range(np.abs(q), k_f)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mag = np.clip((np.log10(np.abs(q)) - lo) / (hi - lo), 0.0, 1.0)
+    lo, hi = value_range(np.abs(q), k_f, scale)
+    mag = scaled(np.abs(q), lo, hi, scale.kind)
     mag = np.where(np.abs(q) <= k_f, 0.0, mag)
     t = np.where(np.isfinite(q), 0.5 + 0.5 * np.sign(q) * mag, np.nan)
-    ticks = [(0.0, "-" + _fmt_pow(hi)), (0.25, "-" + _fmt_pow(0.5 * (lo + hi))), (0.5, "0 (|.|<=k_f)"),
-             (0.75, "+" + _fmt_pow(0.5 * (lo + hi))), (1.0, "+" + _fmt_pow(hi))]
+    mid = _ticks(lo, hi, scale.kind, 3)[1][1]
+    ticks = [(0.0, "-" + _fmt(hi)), (0.25, "-" + mid), (0.5, "0 (|.|<=k_f)"), (0.75, "+" + mid), (1.0, "+" + _fmt(hi))]
     return ramp(t, DIVERGING), Legend("K L_ref^2: saddle (-) / elliptic (+)", "gradient", DIVERGING, ticks,
-                                      note="log magnitude; grey: invalid")
+                                      note="magnitude on a %s; mauve: invalid" % _scale_text(scale, lo, hi))
 
 
-def class_colors(class_id):
-    """Colours of the curvature class field c(x) (-1 invalid .. 3 saddle) and the legend."""
+def class_colors(class_id, shares=None):
+    """Colours of the curvature class field c(x) (-1 invalid .. 3 saddle) and the legend.
+
+    shares: class name -> share of the area (the assessment's a_C and the invalid share);
+    the legend shows them in per cent (without: the shares of the display samples).
+    """
     c = np.asarray(class_id, np.int64)
     table = np.array([CLASS_RGB[n] for n in CLASS_ORDER])
     cols = table[np.clip(c + 1, 0, len(CLASS_ORDER) - 1)]
-    counts = np.bincount(np.clip(c + 1, 0, 4), minlength=5)
-    entries = [(CLASS_RGB[n], "%s (%d samples)" % (n, counts[i])) for i, n in enumerate(CLASS_ORDER)]
-    return cols, Legend("curvature class", "categorical", entries=entries,
-                        note="class of each display sample (thresholds tau_H, tau_K)")
+    if shares is None:
+        counts = np.bincount(np.clip(c + 1, 0, 4), minlength=5)
+        shares = {n: counts[i] / max(1, counts.sum()) for i, n in enumerate(CLASS_ORDER)}
+        note = "shares of the display samples"
+    else:
+        note = "shares of the area (a_C of the assessment; invalid: of the represented area)"
+    entries = [(CLASS_RGB[n], "%s %s" % (n, _percent(shares.get(n)))) for n in CLASS_ORDER]
+    return cols, Legend("curvature class (area)", "categorical", entries=entries,
+                        note=note + "; thresholds tau_H, tau_K")
+
+
+def _percent(x):
+    return "n/a" if x is None or not np.isfinite(x) else "%.1f %%" % (100.0 * x)
 
 
 def plate_colors(face_id, face_values):
     """Colours of the per-face I_D: face_id (n,) 1-based; face_values {face: I_D or None}.
 
-    log10 I_D over the range of the faces; a face without an established I_D is grey.
+    Logarithmic over the positive values of the faces; a face with an established I_D of
+    0 (a valid flat plate) takes the bottom colour, marked '0' on the legend; a face
+    without an established I_D is mauve (invalid).
     """
     fid = np.asarray(face_id, np.int64)
     top = int(max(fid.max(initial=0), max(face_values, default=0))) + 1
     lut = np.full(top, np.nan)
     for f, v in face_values.items():
-        if v is not None and v > 0:
-            lut[int(f)] = np.log10(v)
-    fin = lut[np.isfinite(lut)]
-    lo, hi = (float(fin.min()), float(fin.max())) if len(fin) else (0.0, 1.0)
-    if hi - lo < 1e-6:
-        lo, hi = lo - 0.5, hi + 0.5
-    t = (lut[np.clip(fid, 0, top - 1)] - lo) / (hi - lo)
-    ticks = [(float(s), "%.4g" % 10 ** (lo + s * (hi - lo))) for s in np.linspace(0, 1, 5)]
+        if v is not None and np.isfinite(v) and v >= 0:
+            lut[int(f)] = v
+    pos = lut[np.isfinite(lut) & (lut > 0)]
+    lo, hi = (float(pos.min()), float(pos.max())) if len(pos) else (1.0, 10.0)
+    if hi <= lo * 1.000001:  # one value: a decade around it
+        lo, hi = lo / 3.0, hi * 3.0
+    has_zero = bool(np.any(lut[np.isfinite(lut)] == 0))
+    vals = lut[np.clip(fid, 0, top - 1)]
+    t = scaled(np.where(vals == 0, lo, vals), lo, hi, "Logarithmic")
+    ticks = _ticks(lo, hi, "Logarithmic", fmt=lambda v: "%.4g" % v)
+    if has_zero:
+        ticks[0] = (0.0, "0 / %s" % ticks[0][1])
     return ramp(t), Legend("face I_D (plate view, log scale)", "gradient", SEQUENTIAL, ticks,
-                           note="each face coloured by its own I_D; grey: not established")
+                           note="each face coloured by its own I_D%s; mauve: not established"
+                                % ("; bottom colour: 0 (or the smallest)" if has_zero else ""))
 
 
 def distinct_colors(rgb, decimals=3):

@@ -11,10 +11,11 @@ import FreeCADGui
 
 from ..app import analysis as app_analysis
 from ..app.export import export_analysis
-from ..app.selection import analyses_from_selection, sources_from_selection
+from ..app.selection import analyses_from_selection, ignored_subelements, sources_from_selection
 from ..core.errors import InputError
 from . import dialogs
 from .icons import icon
+from .legend import legend_to
 
 
 def _clean(exc):
@@ -42,7 +43,8 @@ class _Command:
     accel = ""
 
     def GetResources(self):  # noqa: N802 - FreeCAD API
-        res = {"Pixmap": icon(self.name), "MenuText": self.menu, "ToolTip": self.tip}
+        # ForEdit: usable while a task panel (validity, compare, probe) is open
+        res = {"Pixmap": icon(self.name), "MenuText": self.menu, "ToolTip": self.tip, "CmdType": "ForEdit"}
         if self.accel:
             res["Accel"] = self.accel
         return res
@@ -69,19 +71,10 @@ class Analyze(_Command):
     def run(self):
         sel = [(s.Object, list(s.SubElementNames)) for s in FreeCADGui.Selection.getSelectionEx()]
         sources = sources_from_selection(sel)
+        ignored = ["%s.%s" % (o.Label, n) for o, subs in sel if hasattr(o, "Shape")
+                   for n in ignored_subelements(subs)]
         from .analyze_panel import show_analyze_panel
-        show_analyze_panel(sources)
-
-
-def legend_to(shown):
-    """Show the colour bar of the given analyses only (bars of several would overlap)."""
-    names = {a.Name for a in shown}
-    for a in app_analysis.analyses_in(FreeCAD.ActiveDocument):
-        vobj = getattr(a, "ViewObject", None)
-        if vobj is not None and "ShowLegend" in vobj.PropertiesList:
-            want = a.Name in names
-            if vobj.ShowLegend != want:
-                vobj.ShowLegend = want
+        show_analyze_panel(sources, ignored)
 
 
 class _ShowMap(_Command):
@@ -89,9 +82,19 @@ class _ShowMap(_Command):
 
     def run(self):
         found = selected_analyses()
+        if self.mode == "Plates":
+            meshes = [a for a in found if a.Representation != "brep"]
+            if meshes:
+                dialogs.info("plate view", "The plate view colours each BRep face by its own I_D; %s %s a "
+                             "triangle mesh, which has no faces to colour. Its map is unchanged."
+                             % (", ".join(a.Label for a in meshes), "is" if len(meshes) == 1 else "are"))
+            found = [a for a in found if a not in meshes]
+            if not found:
+                return
         for a in found:
             a.ViewObject.ColorMap = self.mode
             a.ViewObject.Visibility = True
+        FreeCADGui.Selection.clearSelection()  # the selection highlight would tint the map
         legend_to(found[-1:])
 
 

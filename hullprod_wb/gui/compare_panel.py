@@ -8,7 +8,7 @@ from . import wording
 from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
 
-def chart_png(cmp, width_in=7.0, height_in=3.2, dpi=100):
+def chart_png(cmp, width_in=6.4, height_in=3.6, dpi=110):
     """PNG bytes of the grouped bar chart: I_D, I_D+, I_D- (left), class fractions (right).
 
     Metrics without an established value get no bar and an 'n/a' mark.
@@ -31,14 +31,14 @@ def chart_png(cmp, width_in=7.0, height_in=3.2, dpi=100):
                    width * 0.95, label=lab)
             for x, v in zip(xs, vals):
                 if v is None:
-                    ax.text(x, 0, "n/a", ha="center", va="bottom", fontsize=7, rotation=90)
+                    ax.text(x, 0, "n/a", ha="center", va="bottom", fontsize=10, rotation=90)
         ax.set_xticks(range(len(metrics)))
-        ax.set_xticklabels([METRIC_LABELS[m] for m in metrics], fontsize=8)
-        ax.set_title(title, fontsize=9)
-        ax.tick_params(labelsize=8)
+        ax.set_xticklabels([METRIC_LABELS[m] for m in metrics], fontsize=11)
+        ax.set_title(title, fontsize=11)
+        ax.tick_params(labelsize=10)
         if k == 1:
             ax.set_ylim(0, 1)
-    fig.axes[0].legend(fontsize=7)
+    fig.axes[0].legend(fontsize=10)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png")

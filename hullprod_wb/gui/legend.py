@@ -9,8 +9,9 @@ from . import colormaps
 #: The overlay lives in a tiny normalised box (side 2 * HUD_SCALE model units around the
 #: origin) seen through its own orthographic camera, so it never enlarges "fit all".
 HUD_SCALE = 1.0e-6
-#: Overlay layout in normalised device coordinates ([-1, 1] across the view).
-BAR_X0, BAR_X1, BAR_Y0, BAR_Y1 = 0.80, 0.845, -0.55, 0.55
+#: Overlay layout in normalised device coordinates ([-1, 1] across the view): at the left
+#: edge, clear of the navigation cube (top right) and of the axis cross (bottom right).
+BAR_X0, BAR_X1, BAR_Y0, BAR_Y1 = -0.955, -0.92, -0.60, 0.45
 
 
 def _text(coin, x, y, lines, justification=None):
@@ -100,7 +101,7 @@ def build_overlay(legend, font_size=13.0):
     if len(legend.title) > 18 and " (" in legend.title:
         first, rest = legend.title.split(" (", 1)
         lines = [first, "(" + rest]
-    head.addChild(_text(coin, 0.98, top + 0.06 * (len(lines) - 1), lines, coin.SoText2.RIGHT))
+    head.addChild(_text(coin, BAR_X0, top + 0.06 * (len(lines) - 1), lines))
     root.addChild(head)
     return root
 
@@ -119,36 +120,82 @@ def make_legend_widget(legend, parent=None):
         def __init__(self, legend, parent=None):
             super().__init__(parent)
             self.legend = legend
-            self.setMinimumHeight(70 if legend.kind == "gradient" else 24 + 18 * ((len(legend.entries) + 2) // 3))
+            self._fit()
+
+        def _fit(self):
+            line = self.fontMetrics().height() + 2
+            lg = self.legend
+            if lg.kind == "gradient":
+                lines = 4 + max(1, len(lg.note) // 60)  # title, bar, ticks, the note wrapped
+            else:
+                lines = 2 + (len(lg.entries) + 1) // 2 + max(1, len(lg.note) // 60)
+            self.setMinimumHeight(line * lines + 8)
 
         def set_legend(self, legend):
             self.legend = legend
+            self._fit()
             self.update()
 
         def paintEvent(self, event):  # noqa: N802 - Qt API
             lg = self.legend
             p = QtGui.QPainter(self)
             w = self.width()
-            p.drawText(4, 14, lg.title)
+            fm = p.fontMetrics()
+            line = fm.height() + 2
+            p.drawText(4, fm.ascent() + 2, lg.title)
+            y = line + 4
             if lg.kind == "gradient":
                 grad = QtGui.QLinearGradient(10, 0, w - 10, 0)
                 for a in lg.anchors:
                     grad.setColorAt(float(a[0]), QtGui.QColor.fromRgbF(float(a[1]), float(a[2]), float(a[3])))
-                p.fillRect(QtCore.QRect(10, 20, w - 20, 18), QtGui.QBrush(grad))
+                p.fillRect(QtCore.QRect(10, y, w - 20, 18), QtGui.QBrush(grad))
                 for pos, text in lg.ticks:
                     x = int(10 + pos * (w - 20))
-                    p.drawLine(x, 38, x, 42)
-                    tw = p.fontMetrics().horizontalAdvance(text) if hasattr(p.fontMetrics(), "horizontalAdvance") \
-                        else p.fontMetrics().width(text)
-                    p.drawText(max(0, min(w - tw, x - tw // 2)), 55, text)
-                p.drawText(4, 68, lg.note)
+                    p.drawLine(x, y + 18, x, y + 22)
+                    tw = fm.horizontalAdvance(text) if hasattr(fm, "horizontalAdvance") else fm.width(text)
+                    p.drawText(max(0, min(w - tw, x - tw // 2)), y + 22 + fm.ascent(), text)
+                y += 24 + line
             else:
-                cols = 3
+                cols = 2
                 cw = (w - 8) // cols
                 for i, (rgb, text) in enumerate(lg.entries):
-                    x, y = 4 + (i % cols) * cw, 22 + (i // cols) * 18
-                    p.fillRect(x, y, 14, 12, QtGui.QColor.fromRgbF(*rgb))
-                    p.drawText(x + 18, y + 11, text)
+                    x, yy = 4 + (i % cols) * cw, y + (i // cols) * line
+                    p.fillRect(x, yy, 14, 12, QtGui.QColor.fromRgbF(*rgb))
+                    p.drawText(x + 18, yy + 11, text)
+                y += line * ((len(lg.entries) + 1) // 2)
+            p.drawText(QtCore.QRect(4, y, w - 8, self.height() - y), QtCore.Qt.TextWordWrap, lg.note)
             p.end()
 
     return LegendWidget(legend, parent)
+
+
+def legend_to(shown):
+    """Show the colour bar of the given analyses only (bars of several would overlap)."""
+    import FreeCAD
+    from ..app import analysis as app_analysis
+    names = {a.Name for a in shown}
+    for a in app_analysis.analyses_in(FreeCAD.ActiveDocument):
+        vobj = getattr(a, "ViewObject", None)
+        if vobj is not None and "ShowLegend" in vobj.PropertiesList:
+            want = a.Name in names
+            if vobj.ShowLegend != want:
+                vobj.ShowLegend = want
+
+
+def overlay_box_pixels(legend, width, height, font_px=13.0):
+    """(left, top, right, bottom) pixels, from the view's top left, that build_overlay's
+    bar, ticks and title take in a view of width x height pixels (text widths estimated
+    at 0.62 font_px per character, line height 1.3 font_px)."""
+    def px(x, y):
+        return (x + 1.0) * 0.5 * width, (1.0 - y) * 0.5 * height
+    texts = [t for _, t in legend.ticks] if legend.kind == "gradient" else \
+        [t.split(" (")[0] for _, t in legend.entries]
+    lines = [legend.title]
+    if len(legend.title) > 18 and " (" in legend.title:
+        first, rest = legend.title.split(" (", 1)
+        lines = [first, "(" + rest]
+    char = 0.62 * font_px
+    x0, y_top = px(BAR_X0, BAR_Y1 + 0.06 + 0.06 * (len(lines) - 1))
+    x1, y_bot = px(BAR_X1 + 0.012, BAR_Y0 - 0.03)
+    right = max(x1 + char * max(len(t) for t in texts), x0 + char * max(len(t) for t in lines))
+    return x0, y_top - 1.3 * font_px, right, y_bot + 1.3 * font_px

@@ -15,6 +15,19 @@ ACTIVE = None
 COLUMNS = ("#", "object", "K", "H", "k1", "k2", "q_D", "class", "how")
 
 
+def length_unit(analyses):
+    """The length unit the curvatures are per ('mm' for Part shapes, 'unit' otherwise)."""
+    units = {str(a.Units) for a in analyses}
+    return "mm" if any("mm" in u for u in units) else "unit"
+
+
+def headers(analyses):
+    """Column titles with units: K per length squared, H, k1, k2 per length, q_D dimensionless."""
+    u = length_unit(analyses)
+    per = {"K": "1/%s\u00b2" % u, "H": "1/%s" % u, "k1": "1/%s" % u, "k2": "1/%s" % u, "q_D": "-"}
+    return ["%s (%s)" % (c, per[c]) if c in per else c for c in COLUMNS]
+
+
 class ProbePanel:
     """Task panel listing probed points; closing it ends the probe mode."""
 
@@ -33,7 +46,7 @@ class ProbePanel:
         self.hint.setWordWrap(True)
         lay.addWidget(self.hint)
         self.table = QtWidgets.QTableWidget(0, len(COLUMNS))
-        self.table.setHorizontalHeaderLabels(list(COLUMNS))
+        self.table.setHorizontalHeaderLabels(headers(analyses))
         self.table.verticalHeader().setVisible(False)
         lay.addWidget(self.table)
         self.last = QtWidgets.QLabel("")
@@ -51,6 +64,10 @@ class ProbePanel:
             x, y = ev.getPosition().getValue()
             if self.pick_at((int(x), int(y))) is not None:
                 event_callback.setHandled()
+                # a click here probes; FreeCAD's selection of the hull would tint its map
+                from .qt import QtCore
+                import FreeCADGui
+                QtCore.QTimer.singleShot(0, FreeCADGui.Selection.clearSelection)
 
     def _analysis_for(self, name):
         import FreeCAD
@@ -105,7 +122,15 @@ class ProbePanel:
         return r
 
     def stop(self):
+        """End the probe mode: the mouse callback and the markers go."""
         global ACTIVE
+        for a in self.analyses.values():
+            try:
+                vp = getattr(a.ViewObject, "Proxy", None)
+            except Exception:  # the object was deleted meanwhile
+                continue
+            if vp is not None and hasattr(vp, "clear_marker"):
+                vp.clear_marker()
         if self._cb is not None:
             try:
                 self.view.removeEventCallbackPivy(self._type, self._cb)

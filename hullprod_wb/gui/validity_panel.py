@@ -12,8 +12,35 @@ from . import colormaps, wording
 from .legend import make_legend_widget
 from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
-FACE_COLUMNS = ("face", "surface", "area", "share", "I_D", "I_D+", "I_D-", "flat", "single", "elliptic",
-                "saddle", "status")
+FACE_COLUMNS = ("face", "status", "I_D", "share", "area", "surface", "I_D+", "I_D-", "flat", "single",
+                "elliptic", "saddle")
+
+
+def units_text(units, fallback=""):
+    """The provenance's units record as a sentence ('working: mm; source: inch')."""
+    if isinstance(units, dict):
+        parts = []
+        if units.get("working_unit"):
+            parts.append("lengths in %s" % units["working_unit"])
+        if units.get("source_unit") and units.get("source_unit") != units.get("working_unit"):
+            parts.append("source declared %s" % units["source_unit"])
+        if units.get("note"):
+            parts.append(units["note"])
+        return "; ".join(parts) or fallback
+    return str(units or fallback)
+
+
+def area_text(value, units):
+    """An area in words a naval architect reads: m^2 for a millimetre model, else the
+    model's unit squared ('mesh units^2' when the mesh carries no unit)."""
+    if value is None or value != value:
+        return "n/a"
+    u = str(units or "")
+    if "mm" in u or "FreeCAD" in u:
+        return "%.6g m\u00b2" % (value / 1e6)
+    if not u or u == "?":
+        return "%.6g (model units)\u00b2" % value
+    return "%.6g %s\u00b2" % (value, u)
 
 
 def _item(text, tip=None):
@@ -101,8 +128,12 @@ class ValidityPanel(CloseOnlyPanel):
             self.rows.append({"metric": m, "value": rec["value"], "status": status, "reason": reason,
                               "color": wording.status_color(status)})
         t.resizeColumnsToContents()
-        t.setColumnWidth(3, 420)
-        t.setMinimumHeight(30 * (len(METRICS) + 1))
+        # the reason wraps inside the panel's width instead of scrolling sideways
+        t.setWordWrap(True)
+        t.horizontalHeader().setSectionResizeMode(3, QtWidgets.QHeaderView.Stretch)
+        t.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
+        t.resizeRowsToContents()
+        t.setMinimumHeight(t.horizontalHeader().height() + sum(t.rowHeight(i) for i in range(t.rowCount())) + 6)
         self.signature_table = t
         return t
 
@@ -111,10 +142,12 @@ class ValidityPanel(CloseOnlyPanel):
         rep, valid = ig.get("represented_area") or 0.0, ig.get("valid_area") or 0.0
         share = 100.0 * valid / rep if rep else float("nan")
         ev = self.doc["validity"]["I_D"].get("evidence", {})
-        ev_text = ", ".join("%s = %s" % (k, v) for k, v in list(ev.items())[:6]
-                            if not isinstance(v, (dict, list)))
-        lab = QtWidgets.QLabel("Represented area %.6g %s\u00b2, valid area %.6g (%.2f %%).<br>"
-                               "Evidence (I_D): %s" % (rep, self.obj.Units, valid, share, ev_text or "none recorded"))
+        ev_text = "; ".join("%s = %s" % (k, wording.format_value(v) if isinstance(v, float) else v)
+                            for k, v in list(ev.items())[:6] if not isinstance(v, (dict, list)))
+        units = self.obj.Units or ("mesh units" if self.obj.Representation == "mesh" else "")
+        lab = QtWidgets.QLabel("Represented area %s, valid area %s (%.2f %%).<br>"
+                               "Evidence (I_D): %s" % (area_text(rep, units), area_text(valid, units), share,
+                                                       ev_text or "none recorded"))
         lab.setWordWrap(True)
         self.areas_label = lab
         return lab
@@ -122,15 +155,19 @@ class ValidityPanel(CloseOnlyPanel):
     def _maps(self):
         box = QtWidgets.QGroupBox("Colour map on the hull")
         v = QtWidgets.QVBoxLayout(box)
-        h = QtWidgets.QHBoxLayout()
+        h = QtWidgets.QGridLayout()  # two by two: fits a narrow combo view
         self.map_buttons = {}
-        for mode in colormaps.MAPS:
+        for k, mode in enumerate(colormaps.MAPS):
             b = QtWidgets.QPushButton(mode)
             b.setCheckable(True)
             b.clicked.connect(lambda checked=False, m=mode: self.set_map(m))
-            h.addWidget(b)
+            h.addWidget(b, k // 2, k % 2)
             self.map_buttons[mode] = b
         v.addLayout(h)
+        if self.obj.Representation != "brep":
+            self.map_buttons["Plates"].setEnabled(False)
+            self.map_buttons["Plates"].setToolTip("the plate view colours BRep faces; this is a triangle mesh")
+        v.addLayout(self._scale_row())
         vp = self._vp()
         self.legend_widget = make_legend_widget(vp.legend if vp is not None and vp.legend else
                                                 colormaps.Legend("no colours yet", "categorical"))
@@ -138,13 +175,64 @@ class ValidityPanel(CloseOnlyPanel):
         self._sync_map_buttons()
         return box
 
+    def _scale_row(self):
+        """Scale of the developability and signed maps: a range (percentiles, from k_f, or a
+        fixed preset) and linear or logarithmic; stored in the view properties."""
+        h = QtWidgets.QGridLayout()
+        h.addWidget(QtWidgets.QLabel("Scale:"), 0, 0)
+        self.scale_combo = QtWidgets.QComboBox()
+        self.scale_combo.setSizeAdjustPolicy(QtWidgets.QComboBox.AdjustToMinimumContentsLengthWithIcon)
+        self.scale_combo.setMinimumContentsLength(12)
+        self.scale_choices = [("percentiles %g-%g (default)" % (colormaps.LOW_PERCENTILE, colormaps.HIGH_PERCENTILE),
+                               "Percentile", None), ("k_f to 99.5th percentile", "From k_f", None)]
+        self.scale_choices += [("fixed " + name, "Fixed", (lo, hi)) for name, lo, hi in colormaps.SCALE_PRESETS]
+        for text, _, _ in self.scale_choices:
+            self.scale_combo.addItem(text)
+        vobj = self.obj.ViewObject
+        current = [i for i, (_, rng, lim) in enumerate(self.scale_choices) if rng == getattr(vobj, "ScaleRange", "")
+                   and (lim is None or tuple(lim) == (vobj.ScaleMin, vobj.ScaleMax))]
+        if getattr(vobj, "ScaleRange", "") == "Fixed" and not current:
+            self.scale_combo.addItem("fixed %g to %g" % (vobj.ScaleMin, vobj.ScaleMax))
+            self.scale_choices.append((self.scale_combo.itemText(self.scale_combo.count() - 1), "Fixed",
+                                       (vobj.ScaleMin, vobj.ScaleMax)))
+            current = [self.scale_combo.count() - 1]
+        self.scale_combo.setCurrentIndex(current[0] if current else 0)
+        self.linear_check = QtWidgets.QCheckBox("linear")
+        self.linear_check.setChecked(getattr(vobj, "ScaleType", "") == "Linear")
+        self.scale_combo.currentIndexChanged.connect(lambda *_: self.set_scale())
+        self.linear_check.toggled.connect(lambda *_: self.set_scale())
+        h.addWidget(self.scale_combo, 0, 1)
+        h.addWidget(self.linear_check, 1, 1)
+        h.setColumnStretch(1, 1)
+        return h
+
+    def set_scale(self, index=None, linear=None):
+        """Apply a scale choice (index into scale_choices) and linear/logarithmic."""
+        if index is not None:
+            self.scale_combo.setCurrentIndex(index)
+        if linear is not None:
+            self.linear_check.setChecked(linear)
+        _, rng, lim = self.scale_choices[self.scale_combo.currentIndex()]
+        vobj = self.obj.ViewObject
+        if lim is not None:
+            vobj.ScaleMin, vobj.ScaleMax = float(lim[0]), float(lim[1])
+        vobj.ScaleType = "Linear" if self.linear_check.isChecked() else "Logarithmic"
+        vobj.ScaleRange = rng
+        vp = self._vp()
+        if vp is not None and vp.legend is not None:
+            self.legend_widget.set_legend(vp.legend)
+
     def _vp(self):
         vobj = getattr(self.obj, "ViewObject", None)
         return getattr(vobj, "Proxy", None) if vobj is not None else None
 
     def set_map(self, mode):
-        """Show colour map mode on the hull (one click) and its legend here."""
+        """Show colour map mode on the hull (one click: the analysis shown, its colour bar
+        the one in the 3D view) and its legend here."""
+        from .legend import legend_to
         self.obj.ViewObject.ColorMap = mode
+        self.obj.ViewObject.Visibility = True
+        legend_to([self.obj])
         vp = self._vp()
         if vp is not None and vp.legend is not None:
             self.legend_widget.set_legend(vp.legend)
@@ -159,25 +247,28 @@ class ValidityPanel(CloseOnlyPanel):
         faces = self.doc["provenance"]["faces"]
         box = QtWidgets.QGroupBox("Plates: each BRep face on its own")
         v = QtWidgets.QVBoxLayout(box)
-        t = QtWidgets.QTableWidget(len(faces), len(FACE_COLUMNS))
-        t.setHorizontalHeaderLabels(list(FACE_COLUMNS))
+        t = QtWidgets.QTableWidget(len(faces), len(FACE_COLUMNS) - 1)
+        t.setHorizontalHeaderLabels(list(FACE_COLUMNS[1:]))
         t.verticalHeader().setVisible(False)
         self.face_rows = []
         for i, f in enumerate(faces):
             a_c = f.get("a_C") or {}
-            cells = ["Face%d" % f["face"], f.get("surface_type", ""), wording.format_value(f.get("area")),
-                     wording.format_value(f.get("area_share"), 3), wording.format_value(f.get("I_D")),
-                     wording.format_value(f.get("I_D_plus")), wording.format_value(f.get("I_D_minus"))]
+            cells = ["Face%d" % f["face"], str(f.get("status", "")), wording.format_value(f.get("I_D")),
+                     wording.format_value(f.get("area_share"), 3), area_text(f.get("area"), self.obj.Units),
+                     f.get("surface_type", ""), wording.format_value(f.get("I_D_plus")),
+                     wording.format_value(f.get("I_D_minus"))]
             cells += [wording.format_value(a_c.get(n), 3) for n in ("flat", "single", "elliptic", "saddle")]
-            cells.append(str(f.get("status", "")))
-            for j, text in enumerate(cells):
+            for j, text in enumerate(cells[1:]):
                 it = _item(text)
-                if j == len(cells) - 1:
+                if j == 0:
                     it.setBackground(QtGui.QBrush(QtGui.QColor(wording.status_color(text))))
                     it.setForeground(QtGui.QBrush(QtGui.QColor("white")))
                     it.setToolTip(wording.status_sentence(text))
                 t.setItem(i, j, it)
             self.face_rows.append(cells)
+        # the face names are the row header, which stays in view when the table scrolls sideways
+        t.setVerticalHeaderLabels([r[0] for r in self.face_rows])
+        t.verticalHeader().setVisible(True)
         t.resizeColumnsToContents()
         t.setMinimumHeight(min(30 * (len(faces) + 1), 260))
         v.addWidget(t)
@@ -195,7 +286,7 @@ class ValidityPanel(CloseOnlyPanel):
                                      else "discrete curvature on triangles")),
             ("file", inp.get("path") or "FreeCAD object %s" % inp.get("name", "")),
             ("sha256", inp.get("sha256") or "\u2014 (in-memory shape)"),
-            ("units", json.dumps(units) if isinstance(units, dict) else str(units or self.obj.Units)),
+            ("units", units_text(units, self.obj.Units)),
             ("L_ref", "%s: %s" % (d["reference_length"]["mode"], d["reference_length"]["method"])),
             ("faces used", ", ".join("Face%d" % f for f in inp.get("faces_used") or []) or "all"),
             ("software", ", ".join("%s %s" % (k, v) for k, v in sw.items() if v and k != "package")),
@@ -211,7 +302,10 @@ class ValidityPanel(CloseOnlyPanel):
             rows.append(("warning", w))
         self.provenance_rows = rows
         for k, v in rows:
-            lab = QtWidgets.QLabel(str(v))
+            text = str(v)
+            if k == "sha256" and len(text) == 64:  # a hex digest does not wrap: two halves
+                text = text[:32] + "\n" + text[32:]
+            lab = QtWidgets.QLabel(text)
             lab.setWordWrap(True)
             lab.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
             form.addRow(k, lab)

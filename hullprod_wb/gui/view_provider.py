@@ -28,17 +28,40 @@ def face_id_values(obj):
     return out
 
 
-def colors_for(obj, fields, mode):
+def class_shares(obj):
+    """Class name -> share of the area: the assessment's a_C (of the classified area) and
+    the invalid share of the represented area."""
+    shares = {"flat": obj.a_flat, "single": obj.a_single, "elliptic": obj.a_elliptic, "saddle": obj.a_saddle}
+    rep, valid = obj.RepresentedArea, obj.ValidArea
+    shares["invalid"] = 1.0 - valid / rep if rep > 0 and np.isfinite(valid) else float("nan")
+    return shares
+
+
+def scale_of(vobj):
+    """The colormaps.Scale recorded in the view properties (defaults where absent)."""
+    sc = colormaps.Scale()
+    if vobj is None:
+        return sc
+    props = vobj.PropertiesList
+    if "ScaleRange" in props:
+        sc.range, sc.kind = vobj.ScaleRange, vobj.ScaleType
+        sc.low, sc.high = float(vobj.ScaleMin), float(vobj.ScaleMax)
+    return sc
+
+
+def colors_for(obj, fields, mode, scale=None):
     """(n, 3) RGB per display vertex and the Legend for colour map mode (colormaps.MAPS)."""
     if mode == "Plates" and obj.Representation == "brep" and "face_id" in fields.extra:
         return colormaps.plate_colors(fields.extra["face_id"], face_id_values(obj))
     if mode == "Classes":
-        return colormaps.class_colors(fields.class_id)
+        return colormaps.class_colors(fields.class_id, class_shares(obj))
     if mode == "Signed":
-        return colormaps.signed_colors(fields.K, fields.valid, fields.lref, obj.Kf)
-    rgb, lg = colormaps.developability_colors(fields.q_D, obj.Kf)
+        return colormaps.signed_colors(fields.K, fields.valid, fields.lref, obj.Kf, scale)
+    rgb, lg = colormaps.developability_colors(fields.q_D, obj.Kf, scale)
     if mode == "Plates":
-        lg.note = "plate view needs a BRep with faces; showing the developability density"
+        lg.title = "no plate view: not a BRep"
+        lg.note = ("the plate view colours BRep faces; this analysis is of a triangle mesh, so the "
+                   "developability density is shown")
     return rgb, lg
 
 
@@ -59,10 +82,22 @@ class ViewProviderHullProdAnalysis:
         if "ShowLegend" not in vobj.PropertiesList:
             vobj.addProperty("App::PropertyBool", "ShowLegend", "HullProd", "colour bar in the 3D view")
             vobj.ShowLegend = True
+        if "ScaleRange" not in vobj.PropertiesList:
+            vobj.addProperty("App::PropertyEnumeration", "ScaleRange", "HullProd scale",
+                             "range of the developability and signed maps: two percentiles of the samples "
+                             "above k_f, k_f to the 99.5th percentile, or ScaleMin to ScaleMax")
+            vobj.ScaleRange = list(colormaps.SCALE_RANGES)
+            vobj.addProperty("App::PropertyEnumeration", "ScaleType", "HullProd scale",
+                             "logarithmic or linear colour scale")
+            vobj.ScaleType = list(colormaps.SCALE_TYPES)
+            vobj.addProperty("App::PropertyFloat", "ScaleMin", "HullProd scale", "fixed range: lowest |K| L_ref^2")
+            vobj.addProperty("App::PropertyFloat", "ScaleMax", "HullProd scale", "fixed range: highest |K| L_ref^2")
+            vobj.ScaleMin, vobj.ScaleMax = colormaps.Scale.low, colormaps.Scale.high
 
     # -- Coin graph ---------------------------------------------------------------------------
     def attach(self, vobj):
         from pivy import coin
+        self._add_properties(vobj)  # a document saved before a property existed
         self.ViewObject = vobj
         self.Object = vobj.Object
         self.colors = np.zeros((0, 3))
@@ -121,7 +156,8 @@ class ViewProviderHullProdAnalysis:
         fields = fields or app_analysis.analysis_fields(obj)
         if fields is None:
             return
-        rgb, lg = colors_for(obj, fields, getattr(self.ViewObject, "ColorMap", colormaps.MAPS[0]))
+        rgb, lg = colors_for(obj, fields, getattr(self.ViewObject, "ColorMap", colormaps.MAPS[0]),
+                             scale_of(self.ViewObject))
         self.colors, self.legend = rgb, lg
         # Only the diffuse colour varies per vertex in Coin; the other material fields are
         # uniform, so a grey ambient keeps surfaces turned away from the light readable.
@@ -151,6 +187,7 @@ class ViewProviderHullProdAnalysis:
             self.marker_sep.addChild(node)
 
     def clear_marker(self):
+        """Remove the probe's marker sphere."""
         if hasattr(self, "marker_sep"):
             self.marker_sep.removeAllChildren()
 
@@ -162,7 +199,7 @@ class ViewProviderHullProdAnalysis:
             self.recolor()
 
     def onChanged(self, vobj, prop):
-        if prop in ("ColorMap", "ShowLegend"):
+        if prop in ("ColorMap", "ShowLegend", "ScaleRange", "ScaleType", "ScaleMin", "ScaleMax"):
             self.recolor()
 
     def getDisplayModes(self, vobj):

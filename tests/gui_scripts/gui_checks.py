@@ -4,6 +4,7 @@
 # Every check records into RESULT; the pytest side (tests/test_gui.py) asserts on it.
 import json
 import os
+import subprocess
 import sys
 import time
 import traceback
@@ -16,9 +17,16 @@ WORK = os.environ.get("HULLPROD_WORK", "/tmp/hullprod_gui_work")
 T0 = time.time()
 
 
+#: HULLPROD_GUI_ONLY=workbench,compare runs only the named checks (while working on them).
+ONLY = [n for n in os.environ.get("HULLPROD_GUI_ONLY", "").split(",") if n]
+
+
 def step(name):
     """Decorator: run a check, record its result dict or its traceback."""
     def wrap(func):
+        if ONLY and name not in ONLY:
+            RESULT["steps"][name] = {"skipped": "not selected (HULLPROD_GUI_ONLY)"}
+            return func
         t = time.time()
         try:
             RESULT["steps"][name] = func() or {"ok": True}
@@ -117,6 +125,26 @@ def window_shot(name):
     return path
 
 
+def wait_for(cond, seconds):
+    """Run the event loop until cond() or seconds passed; returns cond()."""
+    end = time.time() + seconds
+    while not cond() and time.time() < end:
+        QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
+        time.sleep(0.005)
+    return cond()
+
+
+def screen_shot(name):
+    """The main window as the X server shows it (3D view, navigation cube and all)."""
+    FreeCADGui.Selection.clearSelection()
+    mw = FreeCADGui.getMainWindow()
+    process(200)
+    pix = QtGui.QGuiApplication.primaryScreen().grabWindow(mw.winId())
+    path = os.path.join(SHOTS, name + ".png")
+    pix.save(path)
+    return path
+
+
 def quick_quadrature(p):
     """BRep quadrature through the panel's advanced settings (order 6, rtol 2e-4, depth 4:
     not the defaults, so the test sees them reach the analysis object)."""
@@ -163,8 +191,7 @@ def _():
     return {"active": FreeCADGui.activeWorkbench().name(), "toolbars": bars,
             "has_menu": any("HullProd" in m for m in menus), "commands": {n: n in listed for n in names},
             "toolbar_actions": len([x for x in actions if x]),
-            "icons": {n: not FreeCADGui.getIcon(n).isNull() if hasattr(FreeCADGui, "getIcon") else None
-                      for n in ("HullProd_Analyze",)}}
+            "icons": {n: not FreeCADGui.getIcon(n).isNull() for n in ("HullProd_Analyze", "preferences-hullprod")}}
 
 
 @step("analyze_wigley")
@@ -193,10 +220,13 @@ def _():
     texts = {"proposal": p.auto_radio.text(), "method": p.method_label.text(),
              "advanced_enabled": p.advanced.isEnabled()}
     made = p.run()
+    selected_after = [o.Name for o in FreeCADGui.Selection.getSelection()]
     FreeCADGui.Control.closeDialog()
     a = made[0]
     STATE["a_wigley"] = a
     hull_camera()
+    texts["selected_after"] = selected_after
+    texts["precision_types"] = [a.getTypeIdOfProperty(n) for n in ("Hf", "Kf", "QuadratureRtol")]
     return {"panel_shown": bool(shown), "no_selection_error": [m[2] for m in no_sel], **texts,
             "quadrature": [a.QuadratureOrder, a.QuadratureRtol, a.QuadratureMaxDepth],
             "status": a.Status, "representation": a.Representation, "lref": a.LrefUsed,
@@ -216,6 +246,7 @@ def _():
         FreeCADGui.runCommand(cmd)
         process(30)
         rec = colour_check(a)
+        rec["selected_after"] = [o.Name for o in FreeCADGui.Selection.getSelection()]
         rec["mode"] = a.ViewObject.ColorMap
         rec["png"] = shot(name)
         out[mode] = rec
@@ -271,13 +302,28 @@ def _():
     p.detail_button.setChecked(False)
     p.set_map("Classes")
     legend_after_click = p.legend_widget.legend.title
+    class_entries = [t for _, t in p.legend_widget.legend.entries]
+    bar = FreeCADGui.getMainWindow().findChild(QtWidgets.QToolBar, "HullProd")
+    process(700)  # FreeCAD updates the commands' enabled state on a timer
+    enabled_while_open = {act.text(): act.isEnabled() for act in bar.actions() if act.text()}
+    p.set_map("Developability")
+    scale_before = [a.ViewObject.ScaleRange, a.ViewObject.ScaleType]
+    p.set_scale(index=3, linear=False)  # the preset 'fixed 1 to 10 000'
+    fixed_ticks = [t for _, t in p.legend_widget.legend.ticks]
+    p.set_scale(index=0, linear=True)
+    linear_title = p.legend_widget.legend.title
+    p.set_scale(index=0, linear=False)
+    texts = {"areas": p.areas_label.text(), "units_row": dict(p.provenance_rows).get("units"),
+             "reason_scrolls": p.signature_table.horizontalScrollBar().isVisible()}
     p.set_map("Developability")
     path = window_shot("validity_panel")
     FreeCADGui.Control.closeDialog()
     return {"rows": cells, "status_colors": [r["color"] for r in p.rows],
             "provenance": [k for k, _ in p.provenance_rows], "face_rows": getattr(p, "face_rows", []),
             "json_copied": copied == a.ResultJSON and clip == a.ResultJSON, "tree_top": tree_top,
-            "legend_after_click": legend_after_click, "png": path}
+            "legend_after_click": legend_after_click, "png": path, "class_entries": class_entries,
+            "enabled_while_open": enabled_while_open, "scale_before": scale_before, "fixed_ticks": fixed_ticks,
+            "linear_title": linear_title, **texts}
 
 
 @step("probe_wigley")
@@ -301,13 +347,17 @@ def _():
         r = panel.pick_at(pos)
         if r is not None:
             break
+    process(50)
     path = shot("wigley_probe")
     window_shot("probe_panel")
     rows = panel.table.rowCount()
+    headers = [panel.table.horizontalHeaderItem(j).text() for j in range(panel.table.columnCount())]
+    marker_before = a.ViewObject.Proxy.marker_sep.getNumChildren()
     FreeCADGui.Control.closeDialog()
     process(50)
     return {"result": r, "rows": rows, "tried": tried, "target": [pt.x, pt.y, pt.z], "png": path,
-            "callback_removed": probe.ACTIVE is None}
+            "callback_removed": probe.ACTIVE is None, "headers": headers, "marker_before": marker_before,
+            "marker_after": a.ViewObject.Proxy.marker_sep.getNumChildren()}
 
 
 @step("mesh_analysis")
@@ -336,6 +386,12 @@ def _():
     FreeCADGui.Selection.addSelection(a)
     FreeCADGui.runCommand("HullProd_ShowDevelopability")
     cols = colour_check(a)
+    from hullprod_wb.gui import dialogs
+    n_msg = len(dialogs.LOG)
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.runCommand("HullProd_ShowPlates")
+    plates = {"messages": [m[2] for m in dialogs.LOG[n_msg:]], "map": a.ViewObject.ColorMap}
+    FreeCADGui.Selection.addSelection(a)
     FreeCADGui.runCommand("HullProd_Probe")
     from hullprod_wb.app import analysis_fields
     f = analysis_fields(a)
@@ -343,7 +399,7 @@ def _():
     r = probe.ACTIVE.probe(a, f.points[tri].mean(axis=0))
     FreeCADGui.Control.closeDialog()
     return {"status": a.Status, "representation": a.Representation, "advanced_enabled": adv,
-            "colors": cols, "probe": r, "unchanged": fingerprint(m) == before}
+            "colors": cols, "probe": r, "unchanged": fingerprint(m) == before, "plates": plates}
 
 
 @step("face_selection")
@@ -358,15 +414,87 @@ def _():
     lateral = [i + 1 for i, f in enumerate(cyl.Shape.Faces) if "Cylinder" in type(f.Surface).__name__][0]
     FreeCADGui.Selection.clearSelection()
     FreeCADGui.Selection.addSelection(cyl, "Face%d" % lateral)
+    FreeCADGui.Selection.addSelection(cyl, "Edge1")  # a stray edge: named, not assessed
     FreeCADGui.runCommand("HullProd_Analyze")
     p = analyze_panel.LAST_PANEL
+    wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)
+    ignored = p.ignored_label.text() if p.ignored_label.isVisible() or p.ignored_label.text() else ""
+    whole = {"note": p.whole_note.text(), "button": p.whole_button.text(), "shown": not p.whole_note.isHidden()}
     made = p.run()
     FreeCADGui.Control.closeDialog()
     a = made[0]
     out = {"lateral": lateral, "faces": list(a.Faces), "faces_used": list(a.FacesUsed),
-           "face_count": len(cyl.Shape.Faces), "a_single": [a.a_single, a.a_single_Status]}
+           "face_count": len(cyl.Shape.Faces), "a_single": [a.a_single, a.a_single_Status],
+           "ignored": ignored, "whole": whole, "lref_selected": a.LrefUsed}
     doc.removeObject(a.Name)
+    # the whole cylinder with its two planar caps left out by the checkbox
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(cyl)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    out["planar_text"] = QtGui.QTextDocumentFragment.fromHtml(p.planar_label.text()).toPlainText()
+    p.planar_check.setChecked(True)
+    made = p.run()
+    FreeCADGui.Control.closeDialog()
+    a = made[0]
+    doc_json = json.loads(a.ResultJSON)
+    out.update(planar_faces_used=list(a.FacesUsed), planar_recorded=doc_json["input"].get("planar_faces_left_out"),
+               planar_property=a.SkipPlanarFaces)
+    doc.removeObject(a.Name)
+    # a line (no faces) is refused before a panel opens
+    from hullprod_wb.gui import dialogs
+    import Part
+    line = doc.addObject("Part::Feature", "Line")
+    line.Shape = Part.LineSegment(FreeCAD.Vector(0, 0, 0), FreeCAD.Vector(1, 0, 0)).toShape()
+    doc.recompute()
+    before = analyze_panel.LAST_PANEL
+    n_err = len(dialogs.LOG)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(line)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    out["line_messages"] = [m[2] for m in dialogs.LOG[n_err:]]
+    out["line_panel_opened"] = analyze_panel.LAST_PANEL is not before
+    doc.removeObject(line.Name)
     cyl.ViewObject.Visibility = False
+    return out
+
+
+@step("legend_layout")
+def _():
+    """The 3D colour bar in full view, clear of the navigation cube, at two window sizes."""
+    from hullprod_wb.gui.legend import legend_to
+    a = STATE["a_wigley"]
+    a.ViewObject.ColorMap = "Developability"
+    legend_to([a])
+    hull_camera()
+    mw = FreeCADGui.getMainWindow()
+    grp = FreeCAD.ParamGet("User parameter:BaseApp/Preferences/View")
+    cube = grp.GetInt("NaviWidgetSize", 132)
+    corner = grp.GetInt("CornerNaviCube", 1)  # 0 top left, 1 top right, 2 bottom left, 3 bottom right
+    from hullprod_wb.gui.legend import overlay_box_pixels
+    out = {}
+    for w, h in ((1600, 1000), (1280, 720)):
+        mw.showNormal()
+        mw.resize(w, h)
+        process(300)
+        widget = mw.findChild(QtWidgets.QMdiArea).activeSubWindow().widget()
+        vw, vh = widget.width(), widget.height()
+        rec = {"view": [vw, vh], "cube": cube, "corner": corner}
+        for mode in ("Developability", "Classes", "Signed"):
+            a.ViewObject.ColorMap = mode
+            process(50)
+            box = overlay_box_pixels(a.ViewObject.Proxy.legend, vw, vh)
+            cx0 = 0 if corner in (0, 2) else vw - cube
+            cy0 = 0 if corner in (0, 1) else vh - cube
+            overlaps = not (box[2] <= cx0 or box[0] >= cx0 + cube or box[3] <= cy0 or box[1] >= cy0 + cube)
+            rec[mode] = {"box": [round(b, 1) for b in box], "inside": box[0] >= 0 and box[1] >= 0 and box[2] <= vw
+                         and box[3] <= vh, "overlaps_cube": overlaps}
+        a.ViewObject.ColorMap = "Developability"
+        process(50)
+        rec["png"] = screen_shot("legend_%dx%d" % (w, h))
+        out["%dx%d" % (w, h)] = rec
+    mw.resize(1500, 950)
+    process(100)
     return out
 
 
@@ -427,15 +555,15 @@ def _():
     bad = p.run()
     p.lref_edit.setText("1.0")
     count = len(doc.Objects)
-    # Cancel from the panel while the run reports progress (what Cancel/Esc does).
-    orig = p._on_progress
-
-    def cancel_on_first(fraction, message):
-        orig(fraction, message)
-        p.reject()
-    p._on_progress = cancel_on_first
-    cancelled = p.run()
+    # Cancel (the panel's button, or Esc) while the run reports progress.
+    p.advanced.setChecked(True)
+    p.rtol_edit.setText("1e-9")  # a run far longer than the wait for its first progress
+    p.depth_spin.setValue(12)
+    p.start()
+    wait_for(lambda: p.running is None or p.processes[p.running].last_progress is not None, 30)
+    p.reject()
     msg = p.message.text()
+    cancelled = p.made
     FreeCADGui.Control.closeDialog()
     errors = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
     # Deleting an analysis from the tree shows its hidden source again (when it was the last).
@@ -464,13 +592,149 @@ def _():
             "RunProgress": RunProgress.__name__}
 
 
+
+def render_clock():
+    """A Coin callback in the 3D view's scene that records the time of every redraw."""
+    from pivy import coin
+    times = []
+
+    def on_action(_, action):
+        if action.isOfType(coin.SoGLRenderAction.getClassTypeId()):
+            times.append(time.monotonic())
+    cb = coin.SoCallback()
+    cb.setCallback(on_action)
+    view().getSceneGraph().insertChild(cb, 0)
+    return times, lambda: view().getSceneGraph().removeChild(cb)
+
+
+def open_hull(fname, docname):
+    import Part
+    path = os.path.join(SHARED, "brep", fname)
+    if not (SHARED and os.path.isfile(path)):
+        return None
+    doc = FreeCAD.newDocument(docname)
+    src = doc.addObject("Part::Feature", docname)
+    src.Shape = Part.read(path)
+    doc.recompute()
+    return src
+
+
+@step("responsive_cancel")
+def _():
+    """A long run (KVLCC2, tight quadrature) with the view orbiting: redraws are timed;
+    then Cancel, and the assessment process must be gone within a second."""
+    from hullprod_wb.gui import analyze_panel, dialogs
+    src = open_hull("kvlcc2_half_overture.igs", "kvlcc2")
+    if src is None:
+        return {"skipped": "public hulls not present"}
+    hull_camera()
+    n_err = len([m for m in dialogs.LOG if m[0] == "error"])
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    p.advanced.setChecked(True)
+    p.rtol_edit.setText("1e-6")
+    p.depth_spin.setValue(6)
+    times, remove = render_clock()
+    turn = QtCore.QTimer()
+    turn.timeout.connect(lambda: view().setCameraOrientation(
+        FreeCAD.Rotation(FreeCAD.Vector(0, 0, 1), 3).multiply(view().getCameraOrientation())))
+    turn.start(50)
+    t0 = time.monotonic()
+    p.accept()  # OK
+    wait_for(lambda: p.running is None, 12)
+    running_after = p.running is not None
+    t1 = time.monotonic()
+    progress_text = p.message.text()
+    proposal_while_running = p.auto_radio.text()
+    shot_running = window_shot("analyze_running")
+    pid = p.processes[p.running].proc.pid if running_after else None
+    tc = time.monotonic()
+    p.reject()  # Cancel
+    gone = None
+    while pid is not None and time.monotonic() - tc < 5:
+        try:
+            os.kill(pid, 0)
+            with open("/proc/%d/stat" % pid) as fh:
+                if fh.read().split()[2] == "Z":
+                    raise ProcessLookupError
+        except (ProcessLookupError, FileNotFoundError):
+            gone = time.monotonic() - tc
+            break
+        time.sleep(0.01)
+    turn.stop()
+    remove()
+    gaps = [b - a for a, b in zip([t0] + times, times + [t1]) if a >= t0 and b <= t1 + 1e-9]
+    shot_cancel = window_shot("analyze_cancelled")
+    msg = p.message.text()
+    FreeCADGui.Control.closeDialog()
+    made = [o for o in src.Document.Objects if getattr(o, "Source", None) == src]
+    FreeCAD.closeDocument(src.Document.Name)
+    return {"run_seconds": round(t1 - t0, 2), "still_running": running_after, "redraws": len(times),
+            "max_gap": max(gaps) if gaps else None, "progress_text": progress_text,
+            "cancel_seconds": gone, "message": msg, "created": len(made), "proposal": proposal_while_running,
+            "errors": [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:],
+            "png_running": shot_running, "png_cancelled": shot_cancel}
+
+
+def cli_seconds(path):
+    """Wall time of `./hullprod analyze path` of this checkout, and its exit code."""
+    root = os.path.dirname(RESULT["package"])
+    env = dict(os.environ)
+    env.pop("PYTHONHOME", None)
+    t = time.perf_counter()
+    r = subprocess.run([os.path.join(root, "hullprod"), "analyze", path], env=env, capture_output=True, text=True)
+    return time.perf_counter() - t, r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
+
+
+@step("gui_vs_cli")
+def _():
+    """GUI time of Analyze (OK pressed until the analysis is made and coloured) against
+    `./hullprod analyze` on shared hulls, all faces, default settings; the two alternate
+    (a command-line run before each GUI run) so that both see the same machine."""
+    from hullprod_wb.gui import analyze_panel, dialogs
+    out = {}
+    for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1)):
+        src = open_hull(fname, fname.split("_")[0])
+        if src is None:
+            out[fname] = {"skipped": "public hulls not present"}
+            continue
+        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None}
+        for _ in range(runs):
+            seconds, code, last = cli_seconds(os.path.join(SHARED, "brep", fname))
+            if code != 0:
+                rec["cli_error"] = "exit %d: %s" % (code, last)
+            rec["cli_seconds"].append(seconds)
+            n_err = len([m for m in dialogs.LOG if m[0] == "error"])
+            FreeCADGui.Selection.clearSelection()
+            FreeCADGui.Selection.addSelection(src)
+            FreeCADGui.runCommand("HullProd_Analyze")
+            p = analyze_panel.LAST_PANEL
+            wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)  # the user reads the panel
+            rec["proposal"] = p.auto_radio.text()
+            made = p.run()
+            errs = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
+            FreeCADGui.Control.closeDialog()
+            if errs or not made:
+                rec["errors"] += errs or ["no analysis made"]
+                break
+            rec["seconds"].append(p.run_seconds)
+            rec.setdefault("timelines", []).append(getattr(p, "timeline", None))
+            rec["I_D"] = made[0].I_D
+            rec["lref"] = made[0].LrefUsed
+            for a in made:
+                src.Document.removeObject(a.Name)
+        FreeCAD.closeDocument(src.Document.Name)
+        out[fname] = rec
+    return out
+
+
 @step("real_hull")
 def _():
-    """A public BRep hull through the GUI; HULLPROD_GUI_FULL=1 takes DTMB 5415 (faces 1, 2,
-    L_ref = L_pp = 5720 mm; minutes), otherwise the one-face WaveBEM Wigley (seconds)."""
-    full = os.environ.get("HULLPROD_GUI_FULL") == "1"
-    name, fname, faces, lref = (("dtmb5415", "dtmb5415_half_overture.igs", ["Face1", "Face2"], "5720") if full
-                                else ("wigley_wavebem", "wigley_half_wavebem.iges", None, None))
+    """A public BRep hull through the GUI: DTMB 5415, its two hull faces selected in the
+    3D view (not the transom), L_ref = L_pp = 5720 mm."""
+    name, fname, faces, lref = "dtmb5415", "dtmb5415_half_overture.igs", ["Face1", "Face2"], "5720"
     brep = os.path.join(SHARED, "brep", fname)
     if not (SHARED and os.path.isfile(brep)):
         return {"skipped": "public hulls not present"}
@@ -480,27 +744,27 @@ def _():
     src = doc.addObject("Part::Feature", name)
     src.Shape = Part.read(brep)
     doc.recompute()
+    hull_camera()
     before = fingerprint(src)
     FreeCADGui.Selection.clearSelection()
-    if faces:
-        FreeCADGui.Selection.addSelection(src, faces)  # the two hull faces, not the transom
-    else:
-        FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.Selection.addSelection(src, faces)  # the two hull faces, not the transom
     FreeCADGui.runCommand("HullProd_Analyze")
     p = analyze_panel.LAST_PANEL
+    wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)
     proposal = p.auto_radio.text()
-    if lref:
-        p.explicit_radio.setChecked(True)
-        p.lref_edit.setText(lref)
-    if not full:
-        quick_quadrature(p)
+    whole_note = p.whole_note.text() if not p.whole_note.isHidden() else ""
+    window_shot("%s_analyze_faces" % name)
+    p.explicit_radio.setChecked(True)
+    p.lref_edit.setText(lref)
     t = time.time()
     made = p.run()
     seconds = time.time() - t
     FreeCADGui.Control.closeDialog()
     a = made[0]
     hull_camera()
-    out = {"hull": name, "proposal": proposal, "faces": list(a.FacesUsed), "face_count": len(src.Shape.Faces),
+    STATE["a_real"] = a
+    out = {"hull": name, "proposal": proposal, "whole_note": whole_note, "faces": list(a.FacesUsed),
+           "face_count": len(src.Shape.Faces),
            "selected": faces, "status": a.Status, "seconds": round(seconds, 2), "lref": a.LrefUsed,
            "values": {m: [getattr(a, m), getattr(a, m + "_Status")] for m in
                       ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single", "a_elliptic", "a_saddle")},
@@ -540,8 +804,27 @@ def _():
     FreeCADGui.Selection.addSelection(b)
     FreeCADGui.runCommand("HullProd_ShowClasses")
     cls = dict(colour_check(b), png=shot("dtmb5415_mesh_classes"))
+    STATE["b_real"] = b
     return {"status": b.Status, "I_D": [b.I_D, b.I_D_Status], "developability": dev, "classes": cls,
             "unchanged": fingerprint(m) == before}
+
+
+@step("compare_real")
+def _():
+    """The native DTMB 5415 (two faces, L_ref = L_pp) against its coarse mesh (automatic L_ref)."""
+    if "a_real" not in STATE or "b_real" not in STATE:
+        return {"skipped": "public hulls not present"}
+    from hullprod_wb.gui import compare_panel
+    a, b = STATE["a_real"], STATE["b_real"]
+    FreeCAD.setActiveDocument(b.Document.Name)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(b)
+    p = compare_panel.show_compare_panel([a, b])
+    process(200)
+    win = window_shot("dtmb5415_compare")
+    out = {"flags": p.cmp["flags"], "window": win}
+    FreeCADGui.Control.closeDialog()
+    return out
 
 
 @step("save_reload_gui")
@@ -560,6 +843,15 @@ def _():
     rec = colour_check(b)
     out = {"I_D_same": b.I_D == i_d, "vp_class": type(vp).__name__, "colors": rec,
            "map": b.ViewObject.ColorMap}
+    from hullprod_wb.gui import validity_panel
+    b.ViewObject.Visibility = False
+    vpanel = validity_panel.show_validity_panel(b)
+    vpanel.set_map("Signed")
+    process(50)
+    out["after_map_button"] = {"visible": b.ViewObject.Visibility, "legend_on": [
+        o.Name for o in d2.Objects if "ShowLegend" in getattr(o.ViewObject, "PropertiesList", []) and o.ViewObject.ShowLegend],
+        "name": b.Name}
+    FreeCADGui.Control.closeDialog()
     FreeCAD.closeDocument(d2.Name)
     return out
 
