@@ -56,3 +56,12 @@ def pytest_pyfunc_call(pyfuncitem):
     if p.returncode != 0 or " passed" not in p.stdout:
         pytest.fail("in a fresh process:\n" + p.stdout[-6000:] + p.stderr[-2000:], pytrace=False)
     return True
+
+
+def made_in_a_child(make):
+    """make() (a Part shape) built in a child forked now and rebuilt here from its binary
+    BRep data: OpenCascade's modelling (booleans run in parallel on FreeCAD 1.x) starts its
+    threads there, and this process may still fork (clean_process tests)."""
+    from hullprod_wb.brep.face_pool import ForkedCall
+    from hullprod_wb.brep.loading import shape_from_bytes, shape_to_bytes
+    return shape_from_bytes(ForkedCall(lambda: shape_to_bytes(make())).result())

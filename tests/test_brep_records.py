@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from conftest import needs_freecad, shared_hull
+from conftest import made_in_a_child, needs_freecad, shared_hull
 from hullprod_wb.brep import face_pool
 from hullprod_wb.core.errors import InputError
 
@@ -271,7 +271,7 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     from hullprod_wb.brep.trimmed_domain import TrimmedDomain
     Part, _ = _part()
     path = str(tmp_path / "two.step")
-    Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()]).exportStep(path)
+    made_in_a_child(lambda: Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()])).exportStep(path)
     here = backend.assess_brep(path, lref=4.0, jobs=2, with_fields=False)
 
     reader = ReadInChild(path, None, False)

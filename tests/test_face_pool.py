@@ -6,7 +6,7 @@ import threading
 
 import pytest
 
-from conftest import needs_freecad
+from conftest import made_in_a_child, needs_freecad
 from hullprod_wb.brep import face_pool
 from hullprod_wb.core.errors import InputError
 
@@ -24,7 +24,8 @@ def test_parallel_faces_give_the_values_of_the_sequential_run():
     from hullprod_wb.freecad_env import import_freecad
     import_freecad()
     import Part
-    shape = Part.Compound(list(sphere_cap(1.0, 0.5).Faces) + list(hemisphere_with_disc().Faces))
+    shape = made_in_a_child(lambda: Part.Compound(list(sphere_cap(1.0, 0.5).Faces) +
+                                                  list(hemisphere_with_disc().Faces)))
     one = assess(shape, lref=2.0, with_fields=False, jobs=1)
     two = assess(shape, lref=2.0, with_fields=False, jobs=2)
     assert one.options["jobs"] == 1 and two.options["jobs"] == 2

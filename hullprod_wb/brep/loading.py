@@ -126,32 +126,44 @@ def read_shape(path, fmt):
     return shape
 
 
+def _memory_file():
+    """(file descriptor, path) of an anonymous in-memory file (Linux memfd), or of a
+    temporary file elsewhere; the caller closes the descriptor (and removes a path)."""
+    if hasattr(os, "memfd_create"):
+        fd = os.memfd_create("hullprod-brep")
+        return fd, "/proc/self/fd/%d" % fd, False
+    import tempfile
+    fd, path = tempfile.mkstemp(prefix="hullprod-", suffix=".brep.bin")
+    return fd, path, True
+
+
 def shape_to_bytes(shape):
     """OpenCascade's binary BRep data of shape (exact doubles; shape_from_bytes reads it)."""
-    import tempfile
-    fd, path = tempfile.mkstemp(prefix="hullprod-shape-", suffix=".brep.bin")
-    os.close(fd)
+    fd, path, remove = _memory_file()
     try:
         shape.exportBinary(path)
         with open(path, "rb") as fh:
             return fh.read()
     finally:
-        os.unlink(path)
+        os.close(fd)
+        if remove:
+            os.unlink(path)
 
 
 def shape_from_bytes(data):
     """The Part.Shape that shape_to_bytes wrote (FreeCAD is loaded here for it)."""
-    import tempfile
     import_freecad()
     import Part
-    fd, path = tempfile.mkstemp(prefix="hullprod-shape-", suffix=".brep.bin")
+    fd, path, remove = _memory_file()
     try:
-        with os.fdopen(fd, "wb") as fh:
+        with open(path, "wb") as fh:
             fh.write(data)
         shape = Part.Shape()
         shape.importBinary(path)
     finally:
-        os.unlink(path)
+        os.close(fd)
+        if remove:
+            os.unlink(path)
     return shape
 
 

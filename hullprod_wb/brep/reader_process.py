@@ -18,13 +18,10 @@ in the parent with its message (another exception as a RuntimeError: a fault her
 signal), receive() raises ReaderDied naming the file, what the child was doing and the
 likely cause. Nothing here imports numpy or FreeCAD.
 """
-import importlib
 import os
 import pickle
 import select
-import signal
 import struct
-import subprocess
 import sys
 
 from ..core.errors import InputError, ReaderDied
@@ -48,6 +45,7 @@ def reader_name(path):
 def describe_status(status):
     """'exit 1' or 'signal 11, SIGSEGV' for a waitpid status."""
     if os.WIFSIGNALED(status):
+        import signal
         n = os.WTERMSIG(status)
         try:
             return "signal %d, %s" % (n, signal.Signals(n).name)
@@ -83,6 +81,7 @@ def python_interpreter():
 
 def _run_task(task, args, fh):
     """In the child: the task's frames, each sent as soon as it is made."""
+    import importlib
     module, name = task
     try:
         for frame in getattr(importlib.import_module(module), name)(*args):
@@ -138,6 +137,7 @@ class ReaderProcess:
             else:
                 code = ("import sys; sys.path.insert(0, %r); "
                         "from hullprod_wb.brep.reader_process import child_main; child_main()" % PACKAGE_ROOT)
+                import subprocess
                 payload = pickle.dumps((task, args), pickle.HIGHEST_PROTOCOL).hex()
                 self._popen = subprocess.Popen([python_interpreter(), "-P", "-c", code, str(w), payload],
                                                pass_fds=(w,), stdin=subprocess.DEVNULL, stdout=2)
