@@ -139,7 +139,8 @@ class ReaderProcess:
                         "from hullprod_wb.brep.reader_process import child_main; child_main()" % PACKAGE_ROOT)
                 import subprocess
                 payload = pickle.dumps((task, args), pickle.HIGHEST_PROTOCOL).hex()
-                self._popen = subprocess.Popen([python_interpreter(), "-P", "-c", code, str(w), payload],
+                safe_path = ["-P"] if sys.version_info >= (3, 11) else []  # no current directory first
+                self._popen = subprocess.Popen([python_interpreter()] + safe_path + ["-c", code, str(w), payload],
                                                pass_fds=(w,), stdin=subprocess.DEVNULL, stdout=2)
         except BaseException:
             os.close(r)
@@ -157,9 +158,9 @@ class ReaderProcess:
 
     def receive(self, last=False):
         """The next frame of the task; its STAGE entry sets stage (what the child does now:
-        None while it reads the file), a frame of that entry alone is not returned. last: the task has no frame
-        after this one. Raises the task's InputError, or ReaderDied when the child ended
-        before sending the frame."""
+        None while it reads the file), a frame of that entry alone is not returned. last:
+        the task has no frame after this one. Raises the task's InputError, or ReaderDied
+        when the child ended before sending the frame."""
         if os.getpid() != self.owner:
             raise RuntimeError("a reading process's frames are read only by the process that started it")
         while self._fh is not None:
