@@ -61,20 +61,12 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         from .mesh.backend import assess_mesh
         return assess_mesh(source, lref=lref, h_f=h_f, k_f=k_f, with_fields=with_fields,
                            progress=progress)
-    # with one process asked for (jobs=1, a batch worker's HULLPROD_JOBS=1) everything runs
-    # here: a process that loads FreeCAD once for many files reads them itself
     if isinstance(source, (str, os.PathLike)):
-        from .brep.face_pool import second_process_allowed
-        from .brep.plain_records import ReadInChild, reads_in_child
-        if reads_in_child(options.get("jobs")):
-            # a child reads the file and sends its plain records while this process loads
-            # numpy and the backend (brep.plain_records); FreeCAD is never loaded here
-            source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
-        elif second_process_allowed(options.get("jobs")):
-            # FreeCAD is loaded here: read the file and start its L_ref tessellation beside
-            # the loading of the backend
-            from .brep.lref_samples import read_and_start
-            source = read_and_start(source, faces)
+        # OpenCascade reads the file in a child, which sends its plain records while this
+        # process loads numpy and the backend (brep.plain_records); a reader that ends the
+        # child is reported (core.errors.ReaderDied), and this process reads no file itself
+        from .brep.plain_records import ReadInChild
+        source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
     try:
         from .brep.backend import assess_brep
     except BaseException:

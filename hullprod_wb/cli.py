@@ -72,7 +72,7 @@ VALUE_OPTIONS = ("--lref", "--hf", "--kf", "--backend", "--faces", "--order", "-
 
 
 def early_reading(argv):
-    """For `analyze FILE` of a BRep file that api.assess would read in a separate process
+    """For `analyze FILE` of a BRep file, which api.assess reads in a separate process
     (brep.plain_records.ReadInChild): that process, started at once, so that it reads while
     the argument parser and the backend load here; None for anything else, as far as a
     plain scan of argv tells (short options, abbreviations, a second positional: None).
@@ -101,13 +101,10 @@ def early_reading(argv):
         describe_file(path)
     except InputError:
         return None
-    from .brep.plain_records import ReadInChild, reads_in_child
+    from .brep.plain_records import ReadInChild
     try:
         faces = parse_faces(opts.get("--faces"))
-        jobs = None if opts.get("--jobs") is None else int(opts["--jobs"])
     except (InputError, TypeError, ValueError):
-        return None
-    if not reads_in_child(jobs):
         return None
     return ReadInChild(path, faces, with_fields="--no-fields" not in opts or "--out" in opts)
 
@@ -179,9 +176,8 @@ def run_analyze(args):
     faces, with_fields = parse_faces(args.faces), not args.no_fields or bool(args.out)
     source, early = args.input, getattr(args, "early_reading", None)
     if early is not None:
-        from .brep.plain_records import reads_in_child
         if (early.path, early.faces, early.with_fields) == (args.input, faces, with_fields) \
-                and args.backend in (None, "brep") and reads_in_child(args.jobs):
+                and args.backend in (None, "brep"):
             source = early  # the reading process started by main (early_reading)
         else:
             early.close()

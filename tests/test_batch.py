@@ -199,6 +199,7 @@ def crashing_case(case, settings, settings_hash, payload=None):
     return {"case": case.to_dict(), "status": "ok", "row": {"case_id": case.case_id}}
 
 
+@pytest.mark.clean_process  # workers forked (they see the stand-in): from a process with no other thread
 def test_worker_crash_is_isolated(monkeypatch):
     """A worker process that dies breaks the pool; the batch goes on and only the culprit
     becomes an error record. (fork start method: the children see the stand-in.)"""

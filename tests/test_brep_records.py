@@ -1,7 +1,7 @@
 """A BRep file assessed from the plain records of a reading child process
 (brep.plain_records, brep.recorded_shape): the same numbers, to the bit, as reading it in
-this process; fallbacks for faces the records do not describe and for a child that dies;
-errors with the same messages; a reading side that never loads numpy."""
+this process; faces the records do not describe sent as OpenCascade's data; a child that
+dies reported; errors with the same messages; a reading side that never loads numpy."""
 import math
 import os
 import subprocess
@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from conftest import needs_freecad, shared_hull
+from conftest import made_in_a_child, needs_freecad, shared_hull
 from hullprod_wb.brep import face_pool
 from hullprod_wb.core.errors import InputError
 
@@ -130,17 +130,31 @@ def test_shared_hulls_from_records_are_the_same():
             assert recorded.provenance["faces"][0]["repairs"][0].startswith("gap closed at vertex")
 
 
-def test_a_face_the_records_do_not_describe_is_read_here(tmp_path):
+def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
+    """Planes, cylinders and faces with p-curves the records do not describe are sent as
+    OpenCascade's binary BRep data and rebuilt where they are integrated: the values of the
+    file read here, whatever the processes."""
     from hullprod_wb.brep.backend import assess_brep
     from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, V = _part()
-    path = str(tmp_path / "box.step")
-    Part.makeBox(1, 2, 3).exportStep(path)  # planar faces
-    reader = ReadInChild(path, None, False)
-    assert "Plane surface" in reader.unsupported
-    r = assess_brep(reader, with_fields=False, lref=3.0)
-    assert r.provenance["reading"] == "OpenCascade in this process"
-    assert r.signature["I_D"] == 0.0
+    box, mixed = str(tmp_path / "box.step"), str(tmp_path / "mixed.step")
+    Part.makeBox(1, 2, 3).exportStep(box)  # planar faces
+    Part.Compound([wavy_bspline_face(4, 3), Part.makeCylinder(0.5, 1.0, V(0, 0, 1)).Faces[0],
+                   Part.makePlane(1.0, 1.0, V(0, 0, -2))]).exportStep(mixed)
+    shape = RecordedShape(ReadInChild(mixed, None, False))
+    kinds = [(f.surface_type, f.as_data) for _, f in shape.faces]
+    assert kinds == [("BSplineSurface", False), ("Cylinder", True), ("Plane", True)]
+    assert "Cylinder surface" in shape.faces[1][1].rec["reason"]
+    rebuilt = shape.faces[1][1].part_face()
+    assert type(rebuilt.Surface).__name__ == "Cylinder" and rebuilt.Area == pytest.approx(math.pi)
+    shape.close()
+    r = assess_brep(ReadInChild(box, None, False), with_fields=False, lref=3.0)
+    assert r.provenance["reading"].startswith("OpenCascade in a separate process")
+    assert r.signature["I_D"] == 0.0 and r.integrals.represented_area == pytest.approx(22.0, rel=1e-12)
+    for kw in ({"jobs": 1}, {"jobs": 2, "with_fields": False}):
+        recorded, here = both_ways(mixed, lref=4.0, **kw)
+        same_records(recorded, here)
 
 
 def test_errors_of_the_reading_process_are_raised_here(tmp_path):
@@ -165,30 +179,36 @@ def _dies_in_child(*args, **kw):
     raise AssertionError("called in the parent")
 
 
-def test_a_reading_process_that_dies_is_replaced_by_reading_here(tmp_path, monkeypatch):
-    from hullprod_wb.brep import lref_samples, plain_records
+@pytest.mark.clean_process  # the reading process is forked, with the stand-ins below
+def test_a_reading_process_that_dies_is_reported(tmp_path, monkeypatch):
+    """A reading process that ends (an exit or a signal) before its last frame raises
+    ReaderDied, naming the file, what OpenCascade was doing and the likely cause; nothing
+    is read here instead."""
+    from hullprod_wb.brep import lref_samples, loading, plain_records
     from hullprod_wb.brep.backend import assess_brep
+    from hullprod_wb.core.errors import ReaderDied
     path = str(tmp_path / "wavy.step")
     wavy_bspline_face().exportStep(path)
-    here = assess_brep(path, with_fields=False, lref=4.0)
-    # dies before its first frame: the whole file is read here
-    with monkeypatch.context() as m:
-        m.setattr(plain_records, "face_record", _dies_in_child)
-        r = assess_brep(plain_records.ReadInChild(path, None, False), with_fields=False, lref=4.0)
-    assert r.provenance["reading"] == "OpenCascade in this process"
-    assert r.vector == here.vector
-    # dies after its face records, while tessellating: the records are used, the rest is made here
     original = lref_samples.tessellate_faces
 
-    def tessellate(*args):
+    def killed(*args):
         if os.getpid() != _PARENT:
-            os._exit(3)
+            os.kill(os.getpid(), 9)  # (FreeCAD's own handler ends a crash with exit 1)
         return original(*args)
-    with monkeypatch.context() as m:
-        m.setattr(lref_samples, "tessellate_faces", tessellate)
-        r = assess_brep(plain_records.ReadInChild(path, None, False), with_fields=False, lref=4.0)
-    assert r.provenance["reading"].startswith("OpenCascade in a separate process")
-    same_records(r, here)
+    for module, name, stand_in, what in (
+            (loading, "read_shape", _dies_in_child, "OpenCascade's STEP reader ended the process (exit 3)"),
+            (plain_records, "face_record", _dies_in_child,
+             "OpenCascade ended the reading process while describing the faces (exit 3)"),
+            (lref_samples, "tessellate_faces", killed,
+             "OpenCascade ended the reading process while tessellating the faces (signal 9, SIGKILL)")):
+        with monkeypatch.context() as m:
+            m.setattr(module, name, stand_in)
+            with pytest.raises(ReaderDied) as err:
+                assess_brep(plain_records.ReadInChild(path, None, False), with_fields=False, lref=4.0)
+            assert str(err.value) == "%s: %s; the file is probably damaged" % (path, what)
+            if name == "read_shape":  # a file loaded by the other commands (studies) too
+                with pytest.raises(ReaderDied, match="STEP reader ended the process"):
+                    loading.load_brep(path)
 
 
 def test_the_reading_side_does_not_load_numpy(tmp_path):
@@ -239,6 +259,7 @@ def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatc
     same_records(r, here)
 
 
+@pytest.mark.clean_process  # set-ups for worker processes: a process that may fork them
 def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, monkeypatch):
     """The records arrive before the L_ref tessellation; while it runs, this process sets the
     faces up (smallest first) for the worker processes, which take those set-ups over: the
@@ -250,8 +271,7 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     from hullprod_wb.brep.trimmed_domain import TrimmedDomain
     Part, _ = _part()
     path = str(tmp_path / "two.step")
-    Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()]).exportStep(path)
-    here = backend.assess_brep(path, lref=4.0, jobs=2, with_fields=False)
+    made_in_a_child(lambda: Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()])).exportStep(path)
 
     reader = ReadInChild(path, None, False)
     first = reader.frame(0)
@@ -271,7 +291,6 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     monkeypatch.setattr(backend.FaceSetup, "here", staticmethod(counted))
     r = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
     assert sorted(made) == [1, 2]
-    same_records(r, here)
 
     made.clear()
     polls = iter([False] * 4)
@@ -279,8 +298,12 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     shape = RecordedShape(ReadInChild(path, None, False))
     assert here_(shape.faces[0][1]) is None
     shape.close()
-    r = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
+    r2 = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
+    # read here (the shape in this process) after the records' runs: its provenance starts
+    # OpenCascade's threads on FreeCAD 1.x, and this process then forks no worker processes
+    here = backend.assess_brep(path, lref=4.0, jobs=2, with_fields=False)
     same_records(r, here)
+    same_records(r2, here)
 
 
 def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tessellates(tmp_path, monkeypatch):
@@ -337,8 +360,11 @@ def test_the_command_starts_the_reading_process_before_parsing_its_arguments(tmp
         r = cli.early_reading(["analyze"] + argv)
         assert r is not None and (r.faces, r.with_fields, r.path) == expected + (path,)
         r.close()
+    r = cli.early_reading(["analyze", path, "--jobs", "1"])  # whatever the processes asked for
+    assert r is not None
+    r.close()
     for argv in (["analyze", path, "-h"], ["analyze", str(tmp_path / "hull.stl")], ["example"],
-                 ["analyze", path, "--backend", "mesh"], ["analyze", path, "--jobs", "1"],
+                 ["analyze", path, "--backend", "mesh"],
                  ["analyze", str(tmp_path / "missing.step")], ["analyze", path, path]):
         assert cli.early_reading(argv) is None, argv
 

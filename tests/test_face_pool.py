@@ -6,24 +6,30 @@ import threading
 
 import pytest
 
-from conftest import needs_freecad
+from conftest import made_in_a_child, needs_freecad
 from hullprod_wb.brep import face_pool
 from hullprod_wb.core.errors import InputError
 
 needs_fork = pytest.mark.skipif(not face_pool.fork_is_safe(), reason="forking is not available here")
+# a test that forks runs in a fresh process: this one may have meshed (and then forks nothing)
+forks = pytest.mark.clean_process
 
 
 @needs_freecad
 @needs_fork
+@forks
 def test_parallel_faces_give_the_values_of_the_sequential_run():
     from brep_shapes import hemisphere_with_disc, sphere_cap
     from hullprod_wb import assess
     from hullprod_wb.freecad_env import import_freecad
     import_freecad()
     import Part
-    shape = Part.Compound(list(sphere_cap(1.0, 0.5).Faces) + list(hemisphere_with_disc().Faces))
-    one = assess(shape, lref=2.0, with_fields=False, jobs=1)
+    shape = made_in_a_child(lambda: Part.Compound(list(sphere_cap(1.0, 0.5).Faces) +
+                                                  list(hemisphere_with_disc().Faces)))
+    # the parallel run first: the provenance's OpenCascade calls in this process (edge
+    # distances) start OpenCascade's threads on FreeCAD 1.x, after which it forks no more
     two = assess(shape, lref=2.0, with_fields=False, jobs=2)
+    one = assess(shape, lref=2.0, with_fields=False, jobs=1)
     assert one.options["jobs"] == 1 and two.options["jobs"] == 2
     assert len(shape.Faces) >= 4
     assert two.vector == one.vector  # to the bit
@@ -77,6 +83,7 @@ def _dies_on_one(i):
 
 
 @needs_fork
+@forks
 def test_map_faces_order_progress_and_errors():
     seen = []
     assert face_pool.map_faces(_square, 5, 2, cost=[1, 5, 2, 4, 3], on_done=lambda i, r: seen.append(i)) \
@@ -109,6 +116,7 @@ def _raises_unpicklable(i):
 
 
 @needs_fork
+@forks
 def test_forked_call_raises_here_what_the_child_could_not_send():
     # the child leaves without sending (it never returns into the caller's code); the call
     # is made here and raises here
@@ -120,6 +128,7 @@ def test_forked_call_raises_here_what_the_child_could_not_send():
 
 
 @needs_fork
+@forks
 def test_map_forked_same_results_here_or_in_children():
     calls = []
     here = face_pool.map_forked(_where, 3, 1, while_waiting=lambda: calls.append("wait"))
@@ -138,6 +147,7 @@ def test_map_forked_same_results_here_or_in_children():
 
 @needs_freecad
 @needs_fork
+@forks
 def test_a_face_assessed_alone_is_integrated_in_patch_groups():
     from hullprod_wb import assess
     from hullprod_wb.brep.cubature import GROUP_MIN_PATCHES
@@ -178,23 +188,26 @@ def test_a_face_assessed_alone_is_integrated_in_patch_groups():
 
 @needs_freecad
 @needs_fork
+@forks
 def test_lref_tessellation_in_a_child_is_the_one_made_here():
     from brep_shapes import hemisphere_with_disc
     from hullprod_wb.brep.lref_samples import LrefTessellation, tessellate_faces
     faces = list(hemisphere_with_disc().Faces)
+    # the children first: once this process has meshed, it forks no more
+    child, killed, unwanted = (LrefTessellation(faces, 0.02) for _ in range(3))
+    assert child.call.pid is not None  # running beside this process
+    os.kill(killed.call.pid, 9)
+    pid = unwanted.call.pid
+    pts, tris, seconds = child.result()
+    assert seconds >= 0.0 and child.call.pid is None
+    # a child killed before it sends: the tessellation is made here, the same
+    assert killed.result()[:2] == (pts, tris)
     here = tessellate_faces(faces, 0.02)
     assert len(here[0]) > 0 and len(here[1]) > 0 and len(here[0]) % 3 == 0
-    child = LrefTessellation(faces, 0.02)
-    assert child.call.pid is not None  # running beside this process
-    pts, tris, seconds = child.result()
-    assert (pts, tris) == here and seconds >= 0.0 and child.call.pid is None
-    # a child killed before it sends: the tessellation is made here, the same
-    killed = LrefTessellation(faces, 0.02)
-    os.kill(killed.call.pid, 9)
-    assert killed.result()[:2] == here
+    assert (pts, tris) == here
+    assert not face_pool.fork_is_clean()  # OpenCascade's mesher has left its threads here
+    assert LrefTessellation(faces, 0.02).call.pid is None
     # a result no longer wanted: the child is stopped and reaped
-    unwanted = LrefTessellation(faces, 0.02)
-    pid = unwanted.call.pid
     unwanted.close()
     with pytest.raises(ChildProcessError):
         os.waitpid(pid, 0)

@@ -9,6 +9,7 @@ import numpy as np
 from ..core.fields import DistributedFields
 # SAMPLE_DEFLECTION: the deflection of the tessellation whose nodes give the automatic L_ref,
 # with or without display fields, so that L_ref never depends on the display settings
+from .face_pool import ForkedCall
 from .lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401
 from .plain_records import DISPLAY_DEFLECTION, display_mesh  # noqa: F401
 
@@ -44,8 +45,10 @@ def sample_faces(face_fields, deflection, meshes=None):
     """
     parts = {k: [] for k in ("points", "triangles", "uv", "K", "H", "k1", "k2", "valid", "face_id")}
     offset = 0
+    if meshes is None:  # meshed in a child where forking is safe: this process starts no mesher threads
+        meshes = ForkedCall(lambda: [display_mesh(ff.face, deflection) for _, ff in face_fields]).result()
     for i, (number, ff) in enumerate(face_fields):
-        mesh = meshes[i] if meshes is not None else display_mesh(ff.face, deflection)
+        mesh = meshes[i]
         uv, f, T = face_display_mesh(mesh, ff)
         if f is None:
             continue
@@ -67,9 +70,10 @@ def sample_faces(face_fields, deflection, meshes=None):
 def tessellation_samples(faces, deflection, tessellation=None):
     """Points (n, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
     of Part.Face) at deflection, without fields: all the automatic reference length needs
-    (tessellation: an LrefTessellation of them already started). Returns a dict with points
-    and node_area, or None when no face has a tessellation."""
-    tess = tessellation or LrefTessellation(faces, deflection, fork=False)
+    (tessellation: an LrefTessellation of them already started; else one made now, in a
+    child where forking is safe, so that no mesher thread starts here). Returns a dict with
+    points and node_area, or None when no face has a tessellation."""
+    tess = tessellation or LrefTessellation(faces, deflection)
     try:
         pts, tris, _ = tess.result()
     finally:

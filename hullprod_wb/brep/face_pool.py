@@ -14,8 +14,13 @@ and trimmed domain are built; ForkedCall is one such child, for any work on stat
 process has built.
 
 Forking is used only where it is safe: Linux, called from the main thread of a process that
-is not itself a pool worker, and not inside the FreeCAD GUI (its render and Qt threads).
-Elsewhere, and with jobs=1, the faces run in this process with progress inside each face.
+has no other thread (fork_is_clean), is not itself a pool worker, and not inside the FreeCAD
+GUI (its render and Qt threads). A second thread means state a child would inherit without
+the thread that owns it: OpenCascade's thread pool once anything has meshed in parallel
+(FreeCAD 1.x meshes so; a child that meshes again waits forever), BLAS threads, a GUI. It is
+checked again at every fork, so a process that meshes between two assessments stops
+forking. Elsewhere, and with jobs=1, the faces run in this process with progress inside
+each face.
 """
 import os
 import pickle
@@ -32,11 +37,29 @@ JOBS_ENV = "HULLPROD_JOBS"
 _WORK = None
 
 
-def fork_is_safe():
-    """True where worker processes may be forked from this process (see module doc)."""
+def thread_count():
+    """Threads of this process as the kernel counts them (those Python did not start too:
+    OpenCascade's, BLAS's, Qt's), or None where /proc does not tell."""
+    try:
+        with open("/proc/self/stat", "rb") as fh:
+            return int(fh.read().rsplit(b")", 1)[1].split()[17])
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def fork_is_clean():
+    """True where a process forked from this one starts clean: Linux, the main thread, and
+    no other thread in the process (see module doc)."""
     if not sys.platform.startswith("linux") or not hasattr(os, "fork"):  # macOS: system
         return False                                                      # frameworks are not fork-safe
     if threading.current_thread() is not threading.main_thread():
+        return False
+    return thread_count() == 1
+
+
+def fork_is_safe():
+    """True where worker processes may be forked from this process (see module doc)."""
+    if not fork_is_clean():
         return False
     # a daemonic multiprocessing worker (a batch pool's) may not have children; a process
     # that has not imported multiprocessing is none (and need not import it: 10-15 ms)
@@ -98,13 +121,14 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
 
     work(i) returns a picklable result; cost (n,) orders the hand-out (largest first);
     on_done(i, result) is called in this process as each finishes; while_waiting() is
-    called once in this process, while the workers run (first, without workers). An error
+    called once in this process, while the workers run (first, without workers; so too
+    where forking has stopped being safe since jobs was resolved). An error
     raised by work is raised here; a worker that dies (a crash in the geometry kernel) is
     reported as an InputError naming the items (labels, default their indices) that were
     still running."""
     global _WORK
     results = [None] * n
-    if jobs <= 1 or n <= 1:
+    if jobs <= 1 or n <= 1 or not fork_is_safe():
         if while_waiting is not None:
             while_waiting()
         for i in range(n):
@@ -117,6 +141,7 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
     from concurrent.futures.process import BrokenProcessPool
     order = sorted(range(n), key=lambda i: -(cost[i] if cost is not None else 0.0))
     _WORK = work
+    threads = thread_count()
     try:
         with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("fork")) as pool:
             pending = {pool.submit(_run_one, i): i for i in order}
@@ -143,7 +168,18 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
                 raise
     finally:
         _WORK = None
+        _wait_for_threads(threads)
     return results
+
+
+def _wait_for_threads(count, timeout=2.0):
+    """Wait (up to timeout seconds) until this process has no more than count threads: a
+    process pool's own threads end a moment after it has shut down, and until they have,
+    nothing may be forked here."""
+    import time
+    end = time.monotonic() + timeout
+    while count is not None and (thread_count() or 0) > count and time.monotonic() < end:
+        time.sleep(0.001)
 
 
 def reap(pid):

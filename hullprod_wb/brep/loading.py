@@ -1,8 +1,11 @@
 """BRep input: files, Part shapes and FreeCAD objects -> the faces to assess.
 
-Files go through FreeCAD's Part/Import (OpenCascade converts lengths to millimetres).
-The geometry is never healed, sewn or tessellated for integration; the caller's shape is
-never modified (we work on a copy).
+Files go through FreeCAD's Part/Import (OpenCascade converts lengths to millimetres), in
+a child process (reader_process): OpenCascade's readers end the process on some damaged
+files, and the child's end is reported (ReaderDied) instead. The child sends the shape
+back as OpenCascade's binary BRep data (shape_to_bytes), read here by OpenCascade's own
+binary reader. The geometry is never healed, sewn or tessellated for integration; the
+caller's shape is never modified (we work on a copy).
 """
 import os
 import re
@@ -123,16 +126,77 @@ def read_shape(path, fmt):
     return shape
 
 
-def load_brep(source, faces=None):
+def _memory_file():
+    """(file descriptor, path) of an anonymous in-memory file (Linux memfd), or of a
+    temporary file elsewhere; the caller closes the descriptor (and removes a path)."""
+    if hasattr(os, "memfd_create"):
+        fd = os.memfd_create("hullprod-brep")
+        return fd, "/proc/self/fd/%d" % fd, False
+    import tempfile
+    fd, path = tempfile.mkstemp(prefix="hullprod-", suffix=".brep.bin")
+    return fd, path, True
+
+
+def shape_to_bytes(shape):
+    """OpenCascade's binary BRep data of shape (exact doubles; shape_from_bytes reads it)."""
+    fd, path, remove = _memory_file()
+    try:
+        shape.exportBinary(path)
+        with open(path, "rb") as fh:
+            return fh.read()
+    finally:
+        os.close(fd)
+        if remove:
+            os.unlink(path)
+
+
+def shape_from_bytes(data):
+    """The Part.Shape that shape_to_bytes wrote (FreeCAD is loaded here for it)."""
+    import_freecad()
+    import Part
+    fd, path, remove = _memory_file()
+    try:
+        with open(path, "wb") as fh:
+            fh.write(data)
+        shape = Part.Shape()
+        shape.importBinary(path)
+    finally:
+        os.close(fd)
+        if remove:
+            os.unlink(path)
+    return shape
+
+
+def shape_frames(path, fmt):
+    """In a reading process (reader_process): the one frame {"shape": shape_to_bytes} of
+    the file read with read_shape."""
+    import_freecad()
+    yield {"shape": shape_to_bytes(read_shape(path, fmt))}
+
+
+def read_shape_in_child(path, fmt):
+    """read_shape(path, fmt) run in a reading process (reader_process.ReaderProcess), the
+    shape rebuilt here from its binary BRep data; ReaderDied when the process dies."""
+    from .reader_process import ReaderProcess
+    child = ReaderProcess(path, (__name__, "shape_frames"), (path, fmt))
+    try:
+        return shape_from_bytes(child.receive(last=True)["shape"])
+    finally:
+        child.close()
+
+
+def load_brep(source, faces=None, here=False):
     """Resolve source (path, Part.Shape or FreeCAD object) and the face selection.
 
-    faces: 1-based FreeCAD face numbers (Face1 = 1) or None for all faces.
+    faces: 1-based FreeCAD face numbers (Face1 = 1) or None for all faces. A file is read
+    in a reading process (read_shape_in_child), or with here=True in this one (a reading
+    process itself).
     """
     if isinstance(source, (str, os.PathLike)):
         info = describe_file(source)
         if info["representation"] != "brep":
             raise InputError("%s is a triangle mesh, not a BRep" % source)
-        shape = read_shape(info["path"], info["format"])
+        shape = (read_shape if here else read_shape_in_child)(info["path"], info["format"])
         unit = declared_unit(info["path"], info["format"])
         units = {"source_unit": unit or ("mm" if info["format"] == "brep" else "undeclared"),
                  "working_unit": "mm" if info["format"] in ("iges", "step") else (unit or "model units"),

@@ -2,33 +2,30 @@
 
 A BRep file's assessment needs OpenCascade only to read the geometry: its B-spline and
 Bezier faces are integrated from poles, knots and weights, their trimmed domains from the
-p-curves' data. So a child forked at the start reads the file with FreeCAD, turns every
-face into plain numbers (lists, tuples, arrays of doubles: see face_record), makes the
-tessellations and the OpenCascade values the records need, and sends them to the parent
-through a pipe, while the parent loads numpy and the numerical modules; the parent never
-loads FreeCAD (recorded_shape builds the same fields and domains from the records as from
-the faces, and the results are the same to the bit).
+p-curves' data. So a child (reader_process: forked from a clean process, else a fresh
+interpreter) reads the file with FreeCAD, turns every face into plain numbers (lists,
+tuples, arrays of doubles: see face_record), makes the tessellations and the OpenCascade
+values the records need, and sends them to the parent through a pipe, while the parent
+loads numpy and the numerical modules. A face this module does not describe (another
+surface type, a planar face, a p-curve of another type or none) travels as OpenCascade's
+binary BRep data (faces_to_bytes) and is rebuilt in the process that integrates it, which
+then loads FreeCAD (recorded_shape); either way the fields and domains are built from the
+same numbers as from the faces read in that process.
 
 The child sends three frames: the face records (with OpenCascade's values at the
-cross-check points and the edges' vertices) and the file's description; the nodes of the
-automatic-L_ref tessellation; then, at the lowest priority, what is only needed at the end
-(provenance with OpenCascade's face areas, the display tessellation). The records come
-first, so that the parent sets the faces up while the tessellation runs (ReadInChild.ready
-tells it whether the next frame is there). A shape with a face this module does not
-describe (another surface type, a planar face, a p-curve of another type or none) is
-reported as unsupported, and the parent reads the file itself.
+cross-check points and the edges' vertices, and the faces sent as data) and the file's
+description; the nodes of the automatic-L_ref tessellation (and the described faces as
+data too, for a trimmed domain that needs OpenCascade); then, at the lowest priority, what
+is only needed at the end (provenance with OpenCascade's face areas, the display
+tessellation). The records come first, so that the parent sets the faces up while the
+tessellation runs (ReadInChild.ready tells it whether the next frame is there). A child
+that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied.
 
 Nothing here imports numpy: the reading side never loads it.
 """
 import os
-import pickle
-import select
-import struct
-import sys
 import time
 from array import array
-
-from ..core.errors import InputError
 
 #: Cross-check points per face (backend.cross_check_occ compares at the same points).
 CROSS_CHECK_POINTS = 7
@@ -133,16 +130,30 @@ def pcurve_record(geom, s0, s1):
     return rec
 
 
-def face_pcurves(face):
+def face_pcurves(face, wire_edges=None):
     """(edge, face.curveOnSurface(edge)) of every edge of every wire of face, in the order
-    of the trimmed domain's curves: wire children, so that a seam contributes both of its
-    occurrences."""
+    of the trimmed domain's curves: each wire's children (wire_edges: those lists, when
+    given), a seam edge with both of its occurrences (the two p-curves). FreeCAD 0.20 lists
+    both occurrences among a wire's children, FreeCAD 1.x one; a seam listed once is taken
+    a second time, reversed (the other p-curve), after its wire's other children, which is
+    where 0.20 lists it."""
+    wires = wire_edges if wire_edges is not None else \
+        [[e for e in wire.childShapes() if e.ShapeType == "Edge"] for wire in face.Wires]
+    listed = [e for edges in wires for e in edges]
     out = []
-    for wire in face.Wires:
-        for edge in wire.childShapes():
-            if edge.ShapeType == "Edge":
-                out.append((edge, face.curveOnSurface(edge)))
+    for edges in wires:
+        second = [e.reversed() for e in edges if _is_seam(e, face) and
+                  sum(1 for other in listed if other.isSame(e)) == 1]
+        out.extend((edge, face.curveOnSurface(edge)) for edge in edges + second)
     return out
+
+
+def _is_seam(edge, face):
+    """Whether edge is a seam of face (two p-curves on it)."""
+    try:
+        return bool(edge.isSeam(face))
+    except Exception:  # an edge OpenCascade cannot place on the face: not a seam it knows
+        return False
 
 
 def edge_vertices(edges):
@@ -229,27 +240,87 @@ def face_record(face):
 # -- the child -------------------------------------------------------------------------------
 
 
+def part_record(face, why):
+    """The record of a face sent as OpenCascade's own data (faces_to_bytes) instead of plain
+    numbers (another surface type, a planar face, a p-curve of another type or none, or a
+    face face_record could not describe): surface_type, kind "part", reason, patch_count and
+    occ_reference; the face itself travels in the frame's part_faces."""
+    try:
+        surface_type = type(face.Surface).__name__
+    except Exception:  # no surface OpenCascade can give: the parent's set-up says so
+        surface_type = "unknown"
+    try:
+        reference = occ_reference(face)
+    except Exception:  # no parameter range: nothing to compare
+        reference = [None] * CROSS_CHECK_POINTS
+    return {"surface_type": surface_type, "kind": "part", "reason": why, "patch_count": patch_count(face),
+            "occ_reference": reference}
+
+
+def faces_to_bytes(faces):
+    """Part.Face list -> OpenCascade's binary BRep data of their compound (loading.
+    shape_to_bytes: the faces' orientations and locations as they are)."""
+    import Part
+    from .loading import shape_to_bytes
+    return shape_to_bytes(Part.Compound(list(faces)))
+
+
+def faces_from_bytes(data):
+    """The Part.Face list faces_to_bytes wrote, in its order (FreeCAD is loaded here for it)."""
+    from .loading import shape_from_bytes
+    return list(shape_from_bytes(data).Faces)
+
+
+def record_frames(path, faces, with_fields, display_deflection):
+    """In the reading process (reader_process): read path with FreeCAD and yield the three
+    frames of its records (see the module doc)."""
+    from ..freecad_env import import_freecad
+    from .loading import load_brep
+    from .reader_process import STAGE
+    import_freecad()
+    t = time.perf_counter()
+    inp = load_brep(path, faces, here=True)
+    seconds = time.perf_counter() - t
+    yield {STAGE: "describing the faces"}
+    for frame in _frames(inp, with_fields, display_deflection, seconds):
+        yield frame
+
+
 def _frames(inp, with_fields, display_deflection, read_seconds):
-    """The three frames of the records of a loaded BRepInput (see the module doc)."""
+    """The three frames of the records of a loaded BRepInput (see the module doc), each
+    with what comes after it (reader_process.STAGE)."""
     from ..freecad_env import versions
     from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
     from .provenance import shape_boxes
+    from .reader_process import STAGE
     boxes = shape_boxes(inp.shape, inp.faces)  # before any tessellation, as when read here
     size = float(boxes[0].DiagonalLength)
-    faces = []
+    faces, as_data, described = [], [], []
     for number, face in inp.faces:
-        rec, why = face_record(face)
+        try:
+            rec, why = face_record(face)
+        except Exception as exc:  # OpenCascade cannot give what the record needs: the face as data
+            rec, why = None, "an OpenCascade error (%s)" % " ".join(str(exc).split())
         if rec is None:
-            yield {"unsupported": "Face%d has %s" % (number, why)}
-            return
+            rec = part_record(face, why)
+            rec["part"] = len(as_data)
+            as_data.append(face)
+        else:
+            rec["part"] = len(described)
+            described.append(face)
         rec["number"] = number
         faces.append(rec)
     # the records first: the parent sets the faces up while the tessellation runs here
     yield {"info": inp.info, "units": inp.units, "faces": faces, "size": size, "versions": versions(),
-           "read_seconds": read_seconds}
+           "read_seconds": read_seconds, "part_faces": faces_to_bytes(as_data) if as_data else None,
+           STAGE: "tessellating the faces"}
     t = time.perf_counter()
     pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
-    yield {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t}
+    # with the described faces as data too, for a trimmed domain that needs OpenCascade
+    # (recorded_shape.FaceRecord.part_face): here before any worker process starts
+    yield {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t,
+           "described_faces": faces_to_bytes(described) if described else None,
+           STAGE: "computing the faces' areas and display tessellation"}
     # the rest is needed only at the end: give the CPUs to the integration meanwhile
     try:
         os.nice(19)
@@ -283,119 +354,52 @@ def display_mesh(face, deflection):
 
 
 def reads_in_child(jobs=None):
-    """Whether a BRep file named by its path is read by a ReadInChild in this process
-    (api.assess; cli.early_reading starts it earlier): FreeCAD is not loaded here (a
-    process that has it reads files itself) and a second process is allowed (jobs,
-    $HULLPROD_JOBS: face_pool.second_process_allowed)."""
-    from .face_pool import second_process_allowed
-    return "FreeCAD" not in sys.modules and second_process_allowed(jobs)
+    """Whether a BRep file named by its path is read by a ReadInChild (api.assess;
+    cli.early_reading starts it earlier): always, whatever jobs (kept for callers that ask)."""
+    return True
 
 
 class ReadInChild:
-    """The records of a BRep file, read by a child forked now (see the module doc).
+    """The records of a BRep file, read by a child started now (reader_process: forked from
+    a clean process, else a fresh interpreter; see the module doc).
 
     frame(k) returns frame k (0: faces, 1: L_ref tessellation, 2: the rest) as the child
-    sent it; None when the child died or sent something unreadable (the caller then reads
-    the file itself). An InputError of the child (an unreadable file, a bad face number) is
-    raised here with its message.
+    sent it. An InputError of the child (an unreadable file, a bad face number) is raised
+    here with its message; a child that ends before sending frame k raises ReaderDied (an
+    InputError) naming the file and what OpenCascade was doing.
     """
 
+    FRAMES = 3
+
     def __init__(self, path, faces=None, with_fields=True, display_deflection=None):
+        from .reader_process import ReaderProcess
         self.path, self.faces = path, faces
         self.with_fields, self.display_deflection = with_fields, display_deflection
-        self._frames, self._fh, self._pid = [], None, None
-        r, w = os.pipe()
-        pid = os.fork()
-        if pid == 0:
-            os.close(r)
-            try:
-                with os.fdopen(w, "wb") as fh:
-                    try:
-                        from ..freecad_env import import_freecad
-                        from .loading import load_brep
-                        import_freecad()
-                        t = time.perf_counter()
-                        inp = load_brep(path, faces)
-                        seconds = time.perf_counter() - t
-                        for frame in _frames(inp, with_fields, display_deflection, seconds):
-                            _send(fh, frame)
-                    except InputError as exc:
-                        _send(fh, {"error": str(exc)})
-            finally:
-                os._exit(0)
-        os.close(w)
-        # unbuffered: nothing of a later frame waits in a buffer where ready() cannot see it
-        self._fh, self._pid = os.fdopen(r, "rb", buffering=0), pid
+        self._frames = []
+        self._child = ReaderProcess(path, (__name__, "record_frames"),
+                                    (path, faces, with_fields, display_deflection))
 
     def ready(self, k):
         """Whether frame(k) would return without waiting for the child (or the child has
         ended): frame k has arrived, or the next frame has begun to arrive."""
-        if len(self._frames) > k or self._fh is None:
+        if len(self._frames) > k:
             return True
         if len(self._frames) < k:
             return False
-        return bool(select.select([self._fh], [], [], 0.0)[0])
+        return self._child.ready()
 
     def frame(self, k):
-        while len(self._frames) <= k and self._fh is not None:
-            frame = _receive(self._fh)
-            if frame is None:
-                self.close()
-                break
-            self._frames.append(frame)
-            if "error" in frame:
-                self.close()
-                raise InputError(frame["error"])
-            if "unsupported" in frame:
-                self.close()
-        return self._frames[k] if k < len(self._frames) else None
+        while len(self._frames) <= k:
+            self._frames.append(self._child.receive(last=len(self._frames) == self.FRAMES - 1))
+        return self._frames[k]
 
     @property
     def unsupported(self):
-        """The reason the records path does not apply (None while it does)."""
-        first = self.frame(0)
-        if first is None:
-            return "the reading process ended without sending the records"
-        return first.get("unsupported")
+        """None: every face is described (by plain numbers or as OpenCascade's data); reading
+        it waits for the first frame (and raises what the child raised)."""
+        self.frame(0)
+        return None
 
     def close(self):
         """Stop (if still running) and reap the child."""
-        from .face_pool import reap
-        if self._fh is not None:
-            self._fh.close()
-            self._fh = None
-        if self._pid is not None:
-            reap(self._pid)
-            self._pid = None
-
-
-def _send(fh, obj):
-    data = pickle.dumps(obj, pickle.HIGHEST_PROTOCOL)
-    fh.write(struct.pack("<q", len(data)) + data)
-    fh.flush()
-
-
-def _read_exactly(fh, n):
-    """n bytes from the unbuffered file fh (fewer at its end)."""
-    parts, left = [], n
-    while left > 0:
-        chunk = fh.read(min(left, 1 << 20))
-        if not chunk:
-            break
-        parts.append(chunk)
-        left -= len(chunk)
-    return b"".join(parts)
-
-
-def _receive(fh):
-    head = _read_exactly(fh, 8)
-    if len(head) < 8:
-        return None
-    n = struct.unpack("<q", head)[0]
-    data = _read_exactly(fh, n)
-    if len(data) < n:
-        return None
-    try:
-        return pickle.loads(data)
-    except Exception:  # a frame cut short by a dying child
-        return None
+        self._child.close()

@@ -4,8 +4,10 @@ RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput:
 (with OpenCascade's cross-check values), description, bounding-box size, the automatic-L_ref
 nodes, and (late) the provenance, with OpenCascade's face areas, and the display
 tessellation. Its faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part
-faces would, built from the same numbers; a face whose trimmed domain needs OpenCascade
-itself (a p-curve whose conversion fails its check) is read again here (part_face).
+faces would, built from the same numbers. A face sent as OpenCascade's data (another
+surface type, a p-curve the records do not describe) and a face whose trimmed domain
+needs OpenCascade itself (a p-curve whose conversion fails its check) are rebuilt from
+that data in the process that integrates them (part_face); no file is read here.
 """
 from .face_field import FaceField
 from .surface_eval import SurfaceEvaluator
@@ -17,30 +19,35 @@ class FaceRecord:
     (OpenCascade's values at the cross-check points), and field(), domain() (None when it
     needs the Part face: part_face())."""
 
-    def __init__(self, rec, path):
-        self.rec, self.path = rec, path
+    def __init__(self, rec, shape):
+        self.rec, self.shape = rec, shape
         self.number = rec["number"]
         self.surface_type = rec["surface_type"]
         self.patch_count = rec["patch_count"]
         self.occ_reference = rec["occ_reference"]
+        self.as_data = rec.get("kind") == "part"  # sent as OpenCascade's data, not as numbers
 
     def field(self):
+        if self.as_data:
+            return FaceField(self.part_face())
         return FaceField(None, SurfaceEvaluator.from_record(self.rec), self.surface_type)
 
     def domain(self, evaluator=None):
+        if self.as_data:
+            return None
         return TrimmedDomain.from_record(self.rec, evaluator or SurfaceEvaluator.from_record(self.rec))
 
     def part_face(self):
-        """The Part.Face, read from the file in this process (FreeCAD is loaded here)."""
-        from .loading import load_brep
-        return load_brep(self.path, [self.number]).faces[0][1]
+        """The Part.Face, rebuilt from the data the reading process sent (FreeCAD is loaded
+        here for it)."""
+        return self.shape.part_faces("part_faces" if self.as_data else "described_faces")[self.rec["part"]]
 
 
 class RecordedShape:
-    """The records of a BRep file (plain_records.ReadInChild, whose first frame has arrived
-    and is supported): info, units, faces [(number, FaceRecord)], size (bounding-box
-    diagonal), read_seconds; lref_samples() and late() read the later frames, lref_ready()
-    tells whether the first of them is there."""
+    """The records of a BRep file (plain_records.ReadInChild, whose first frame has arrived):
+    info, units, faces [(number, FaceRecord)], size (bounding-box diagonal), read_seconds;
+    lref_samples() and late() read the later frames, lref_ready() tells whether the first
+    of them is there."""
 
     def __init__(self, reader):
         first = reader.frame(0)
@@ -49,8 +56,18 @@ class RecordedShape:
         self.info, self.units = first["info"], first["units"]
         self.size, self.read_seconds = first["size"], first["read_seconds"]
         self.versions = first["versions"]
-        self.faces = [(r["number"], FaceRecord(r, reader.path)) for r in first["faces"]]
+        self.faces = [(r["number"], FaceRecord(r, self)) for r in first["faces"]]
         self._late = None
+        self._part_faces = {}
+
+    def part_faces(self, key):
+        """The faces the reading process sent as data under key ("part_faces" in the first
+        frame, "described_faces" in the second), as Part.Face objects, rebuilt once."""
+        if key not in self._part_faces:
+            from .plain_records import faces_from_bytes
+            frame = self.reader.frame(0 if key == "part_faces" else 1)
+            self._part_faces[key] = faces_from_bytes(frame[key])
+        return self._part_faces[key]
 
     def lref_ready(self):
         """Whether lref_samples() would return without waiting for the reading process."""
@@ -58,41 +75,26 @@ class RecordedShape:
 
     def lref_samples(self):
         """dict(points, node_area) of the automatic-L_ref tessellation (display.tessellation_samples)."""
-        from .display import node_samples, tessellation_samples
-        from .lref_samples import SAMPLE_DEFLECTION
+        from .display import node_samples
         frame = self.reader.frame(1)
-        if frame is None:  # the reading process died: tessellate here
-            return tessellation_samples([f for _, f in self._part_input().faces], SAMPLE_DEFLECTION * self.size)
         return node_samples(frame["lref_points"], frame["lref_triangles"])
 
     def late(self, with_fields, display_deflection):
         """dict(provenance, and with fields display (per face: plain_records.display_mesh) and
-        display_deflection), from the reading process, or made here when it ended before
-        sending them."""
+        display_deflection), from the reading process (from another one, read for them, when
+        this one was started without fields)."""
         if self._late is None:
             frame = self.reader.frame(2)
             self.reader.close()
-            if frame is None or (with_fields and "display" not in frame):
-                frame = self._late_here(with_fields, display_deflection)
+            if with_fields and "display" not in frame:
+                from .plain_records import ReadInChild
+                again = ReadInChild(self.path, self.selection, True, display_deflection)
+                try:
+                    frame = again.frame(2)
+                finally:
+                    again.close()
             self._late = frame
         return self._late
-
-    def _late_here(self, with_fields, display_deflection):
-        from .plain_records import DISPLAY_DEFLECTION, display_mesh
-        from .provenance import shape_boxes, shape_provenance
-        inp = self._part_input()
-        boxes = shape_boxes(inp.shape, inp.faces)
-        out = {}
-        if with_fields:
-            deflection = display_deflection or DISPLAY_DEFLECTION * self.size
-            out["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
-            out["display_deflection"] = deflection
-        out["provenance"] = shape_provenance(inp.shape, inp.faces, None, boxes)
-        return out
-
-    def _part_input(self):
-        from .loading import load_brep
-        return load_brep(self.path, self.selection)
 
     def close(self):
         self.reader.close()

@@ -11,3 +11,9 @@ class InputError(ValueError):
 
 class FreeCADUnavailable(InputError):
     """FreeCAD's Python modules cannot be imported on this machine."""
+
+
+class ReaderDied(InputError):
+    """The process reading a file with OpenCascade ended (an exit or a signal) before it
+    sent what it read: the message names the file, what the reader did and the likely
+    cause (brep.reader_process)."""
