@@ -264,3 +264,14 @@ def test_batch_case_timeout_gives_an_error_row(tmp_path):
     rec = run_case(case, settings, plain)
     assert rec["status"] == "error" and rec["error"]["type"] == "CaseTimeout"
     assert rec["row"]["case_timeout_s"] == 1e-3 and "--case-timeout" in rec["row"]["error"]
+
+
+def test_numbers_of_1e100_or_more_are_refused_before_the_reader():
+    # OpenCascade takes 2e100 as infinite, and its readers can stall on such poles
+    from hullprod_wb.core import file_checks
+    from hullprod_wb.core.errors import InputError
+    step = (b"ISO-10303-21;\nHEADER;\nENDSEC;\nDATA;\n#1=CARTESIAN_POINT('',(1.E+99,0.,0.));\nENDSEC;\n"
+            b"END-ISO-10303-21;\n")
+    file_checks.check_step("a.step", step)
+    with pytest.raises(InputError, match="a number of 1e100 or more \\(line 5\\)"):
+        file_checks.check_step("a.step", step.replace(b"1.E+99", b"1.E+150"))

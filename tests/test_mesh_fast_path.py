@@ -203,15 +203,26 @@ def test_memory_estimate_from_the_header(tmp_path):
 
 
 def test_too_large_mesh_refused_at_once_with_exit_2(tmp_path):
-    p = str(tmp_path / "big.ply")
-    _ply_header_only(p, 10_000_000, 20_000_000)
+    # a file as long as its header declares (sparse: 12-byte vertices, 13-byte faces), so
+    # that its structure is whole and the memory estimate decides
+    full = str(tmp_path / "full.ply")
+    _ply_header_only(full, 10_000_000, 20_000_000)
+    with open(full, "r+b") as fh:
+        header = fh.read().index(b"end_header\n") + len(b"end_header\n")
+        fh.truncate(header + 10_000_000 * 12 + 20_000_000 * 13)
     env = dict(os.environ, HULLPROD_MEMORY_BYTES=str(4 * 2 ** 30))
-    proc = subprocess.run([os.path.join(ROOT, "hullprod"), "analyze", p, "--json"], capture_output=True,
+    proc = subprocess.run([os.path.join(ROOT, "hullprod"), "analyze", full, "--json"], capture_output=True,
                           text=True, env=env, timeout=120)
     assert proc.returncode == 2 and proc.stdout == ""
     line = proc.stderr.strip().splitlines()[-1]
     assert "10000000 vertices" in line and "GB of memory" in line and "4.3 GB are available" in line
-    # with the memory there, the same (truncated) file is a damaged file: exit 2 too
+    # the header alone: refused as truncated, before anything is estimated or read
+    p = str(tmp_path / "big.ply")
+    _ply_header_only(p, 10_000_000, 20_000_000)
+    proc = subprocess.run([os.path.join(ROOT, "hullprod"), "analyze", p, "--json"], capture_output=True,
+                          text=True, env=env, timeout=120)
+    assert proc.returncode == 2 and "truncated" in proc.stderr.strip().splitlines()[-1]
+    # with the memory there, the truncated file is a damaged file: exit 2 too
     env["HULLPROD_MEMORY_BYTES"] = str(64 * 2 ** 30)
     proc = subprocess.run([os.path.join(ROOT, "hullprod"), "analyze", p, "--json"], capture_output=True,
                           text=True, env=env, timeout=120)

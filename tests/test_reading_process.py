@@ -173,3 +173,20 @@ def test_a_reader_from_a_fresh_interpreter_sends_what_a_forked_one_sends(tmp_pat
     assert [strip(f) for f in a] == [strip(f) for f in b]
     forked.close()
     fresh.close()
+
+
+def test_a_reader_that_stalls_is_stopped_at_the_time_limit(tmp_path, monkeypatch):
+    """A reading process that sends nothing within the file's read time limit is stopped,
+    and the reading ends as a damaged file (ReaderDied, an InputError: exit 2)."""
+    import time
+    from hullprod_wb.brep.reader_process import ReaderProcess
+    from hullprod_wb.core.errors import ReaderDied
+    path = tmp_path / "stalls.brep"
+    path.write_text("DBRep_DrawableShape\n")
+    monkeypatch.setenv("HULLPROD_READ_TIME_LIMIT", "1")
+    t = time.monotonic()
+    proc = ReaderProcess(str(path), ("time", "sleep"), (30,))
+    with pytest.raises(ReaderDied, match="did not finish within 1 s; the file is probably damaged"):
+        proc.receive()
+    assert time.monotonic() - t < 10
+    proc.close()

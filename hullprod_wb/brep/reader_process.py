@@ -23,6 +23,7 @@ import pickle
 import select
 import struct
 import sys
+import time
 
 from ..core.errors import InputError, ReaderDied
 
@@ -40,6 +41,28 @@ PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(_
 def reader_name(path):
     """'IGES', 'STEP', 'BRep' or 'OpenCascade' (other extensions) for the file at path."""
     return READER_NAMES.get(os.path.splitext(str(path))[1].lower(), "file")
+
+
+#: Seconds OpenCascade's reader may take on a file: READ_TIME_BASE plus READ_TIME_PER_MB a
+#: megabyte (files of hulls read in well under a second a megabyte here), unless
+#: $HULLPROD_READ_TIME_LIMIT gives the limit.
+READ_TIME_BASE = 30.0
+READ_TIME_PER_MB = 30.0
+
+
+def read_time_limit(path):
+    """Seconds the reading of the file at path may take (READ_TIME_BASE, READ_TIME_PER_MB)."""
+    env = os.environ.get("HULLPROD_READ_TIME_LIMIT")
+    if env:
+        try:
+            return max(float(env), 0.0)
+        except ValueError:
+            pass
+    try:
+        size = os.path.getsize(path)
+    except OSError:
+        size = 0
+    return READ_TIME_BASE + READ_TIME_PER_MB * size / 2.0 ** 20
 
 
 def describe_status(status):
@@ -114,6 +137,7 @@ class ReaderProcess:
     def __init__(self, path, task, args):
         from .face_pool import fork_is_clean
         self.path, self.stage = path, None
+        self.deadline = time.monotonic() + read_time_limit(path)
         self.owner = os.getpid()
         self._pid, self._popen = None, None
         r, w = os.pipe()
@@ -164,6 +188,13 @@ class ReaderProcess:
         if os.getpid() != self.owner:
             raise RuntimeError("a reading process's frames are read only by the process that started it")
         while self._fh is not None:
+            if self.stage is None:  # OpenCascade's reader: it may stall on a damaged file
+                left = self.deadline - time.monotonic()
+                if left <= 0 or not select.select([self._fh], [], [], left)[0]:
+                    self.close()
+                    raise ReaderDied("%s: OpenCascade's %s reader did not finish within %.0f s; the file is "
+                                     "probably damaged (HULLPROD_READ_TIME_LIMIT sets the limit)"
+                                     % (self.path, reader_name(self.path), read_time_limit(self.path)))
             frame = _receive(self._fh)
             if frame is None:
                 status = self._reap()

@@ -190,24 +190,27 @@ def _iges_parameters(entries, p_lines, n_d, pdelim):
 # -- STEP -------------------------------------------------------------------------------------
 
 
-#: A decimal exponent of three digits or more (lower case), and of those the ones beyond the
-#: range of doubles (the number reads as infinity).
-LONG_EXPONENT = re.compile(r"[\d.][ed]\+?0*\d{3,}")
-OVERFLOWING_EXPONENT = re.compile(r"[\d.][ed]\+?0*(?:[4-9]\d\d|3[1-9]\d|309|[1-9]\d{3,})\b")
+#: A positive decimal exponent of three digits or more (lower case): a magnitude of 1e100 or
+#: more, which OpenCascade takes as infinite (Precision::Infinite, 2e100) and no hull's
+#: geometry has; OpenCascade's readers can stall on such poles.
+LONG_EXPONENT = re.compile(r"[\d.][ed]\+?0*[1-9]\d{2,}")
 
 
 def _no_special_reals(path, kind, pattern, text, flags=0):
     """InputError when the regular expression pattern (a NaN or an infinity where the format
     has only finite reals; searched only when the text has 'nan' or 'inf') matches in text,
-    or text has a number beyond the range of doubles."""
+    or text has a number of 1e100 or more (LONG_EXPONENT)."""
     low = text.lower()
     match = re.search(pattern, text, flags) if ("nan" in low or "inf" in low) else None
-    if match is None and LONG_EXPONENT.search(low):
-        match = OVERFLOWING_EXPONENT.search(low)
     if match:
         line = text.count("\n", 0, match.start()) + 1
         _fail(path, "damaged %s file: %r where a number should be (line %d)"
               % (kind, " ".join(match.group(0).split()), line))
+    match = LONG_EXPONENT.search(low)
+    if match:
+        line = text.count("\n", 0, match.start()) + 1
+        _fail(path, "damaged %s file: a number of 1e100 or more (line %d), beyond any geometry "
+              "(OpenCascade takes 2e100 as infinite)" % (kind, line))
 
 
 def check_step(path, data):
