@@ -38,7 +38,7 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
     in the input's units (None: automatic). h_f, k_f: class tolerances. backend: 'brep',
     'mesh' or None (by representation). faces: 1-based BRep face numbers to assess.
     options: BRep settings (order, rtol, max_depth, protocol, point_budget, depth_limit: see
-    brep.backend.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
+    brep.budget.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
     brep.face_pool). A FreeCAD document (.FCStd path): object_name (Name or Label) selects
     its object (document_input.pick_object). Every file's structure is checked before a
     reader sees it (core.file_checks). Returns an Assessment.

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from hullprod_wb.brep import singular
-from hullprod_wb.brep.backend import _global_converged, face_point_budgets, quadrature_options
+from hullprod_wb.brep.budget import face_point_budgets, quadrature_options
+from hullprod_wb.brep.metric_rules import global_converged
 from hullprod_wb.brep.cubature import QUANTITIES, integrate
 from hullprod_wb.brep.trimmed_domain import TrimmedDomain
 from hullprod_wb.core.errors import InputError
@@ -68,10 +69,10 @@ def test_a_sliver_unconverged_on_its_own_converges_under_the_global_budget():
              _face(sliver, {k: 1e-6 for k in QUANTITIES}, {k: 1e-9 for k in QUANTITIES})]
     assert not faces[1].quad.converged["int_abs_K"]
     # ... but 2e-6 in all against the total's 1e-4 tolerance
-    assert _global_converged(faces, "int_abs_K", 1e-4)
+    assert global_converged(faces, "int_abs_K", 1e-4)
     # the same error on the large face's scale is not negligible
     faces[1].quad.errors = {k: 2e-4 for k in QUANTITIES}
-    assert not _global_converged(faces, "int_abs_K", 1e-4)
+    assert not global_converged(faces, "int_abs_K", 1e-4)
 
 
 def test_face_budgets_follow_the_area_with_a_floor():
@@ -144,7 +145,7 @@ def test_stalled_refinement_is_located_at_the_knot_grid_node():
 
 
 def test_faces_that_carry_the_excess_error_are_refined_again():
-    from hullprod_wb.brep.backend import faces_to_refine
+    from hullprod_wb.brep.budget import faces_to_refine
     ok = {k: 1e-7 for k in QUANTITIES}
     big = {k: 1.0 for k in QUANTITIES}
     faces = [_face(big, dict(ok), {k: 1e-4 for k in QUANTITIES}) for _ in range(3)]
@@ -177,7 +178,7 @@ def test_near_threshold_band_has_converged_class_fractions(eps):
 
 
 def test_threshold_band_is_the_area_near_the_thresholds():
-    from hullprod_wb.brep.backend import threshold_band
+    from hullprod_wb.brep.metric_rules import threshold_band
     from hullprod_wb.core.thresholds import Thresholds
     th = Thresholds(1.0, 1e-4, 1e-4)  # tau_H = tau_K = 1e-4
     # two unit squares of nodes: the left one's K in the K band, H far from its band
@@ -207,7 +208,7 @@ def test_class_area_errors_of_a_cell_without_area_stay_bounded():
 
 
 def test_disagreeing_refinements_qualify_a_metric_only_when_they_matter():
-    from hullprod_wb.brep.backend import _disagreeing
+    from hullprod_wb.brep.metric_rules import disagreeing_refinements
     vals = {k: 1.0 for k in QUANTITIES}
     faces = [_face(dict(vals), {k: 1e-7 for k in QUANTITIES}, {k: 1e-4 for k in QUANTITIES}) for _ in range(2)]
     faces[0].number, faces[1].number = 1, 2
@@ -215,8 +216,8 @@ def test_disagreeing_refinements_qualify_a_metric_only_when_they_matter():
     # of the total's tolerance (2e-4): no effect; by 1e-4: the metric is qualified
     faces[1].disagreement = {"int_abs_K": [1.0, 1.0 + 1e-6]}
     faces[0].disagreement = {}
-    assert _disagreeing(faces, "int_abs_K", "A_valid", 1e-4) == []
+    assert disagreeing_refinements(faces, "int_abs_K", "A_valid", 1e-4) == []
     faces[1].disagreement = {"int_abs_K": [1.0, 1.0 + 1e-4]}
-    bad = _disagreeing(faces, "int_abs_K", "A_valid", 1e-4)
+    bad = disagreeing_refinements(faces, "int_abs_K", "A_valid", 1e-4)
     assert [b["face"] for b in bad] == [2]
-    assert _disagreeing(faces, "A_flat", "A_classified", 1e-4) == []
+    assert disagreeing_refinements(faces, "A_flat", "A_classified", 1e-4) == []

@@ -13,7 +13,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..core.constants import CLASS_METRICS, CLASS_NAMES, DEFAULT_HF, DEFAULT_KF, METRICS
+from ..core.constants import DEFAULT_HF, DEFAULT_KF
 from ..core.errors import InputError
 from ..core.integrals import SurfaceIntegrals
 from ..core.progress import null_progress
@@ -21,7 +21,6 @@ from ..core.reference_length import resolve_reference_length
 from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
-from ..core.validity import MetricValidity, Status
 from ..freecad_env import set_reported_versions
 from . import plain_records, singular
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
@@ -35,42 +34,14 @@ from .provenance import occ_face_area, shape_boxes, shape_provenance
 from .patches import Patches
 from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
 from .recorded_shape import FaceRecord, RecordedShape
+from .budget import BUDGET_GROWTH, BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, quadrature_options
 from .cubature import GROUPS, QUANTITIES, NodePrefetch, integrate, patch_area, patch_groups
+from .metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
 from .trimmed_domain import TrimmedDomain
 
-#: Quadrature settings; all are options. protocol "budget": every face refined by its error
-#: estimates down to depth_limit levels, within a share of point_budget field points (its
-#: area share, at least FACE_POINT_FLOOR), the tolerances held by the shape's totals
-#: (metric_validity); "paper": the paper's campaign (section 5.2), each face on its own to
-#: max_depth, rechecked at max_depth + 1.
-DEFAULT_QUADRATURE = {"order": 5, "rtol": 1e-4, "max_depth": 5, "protocol": "budget", "depth_limit": 30,
-                      "point_budget": 8_000_000}
-PROTOCOLS = ("budget", "paper")
-#: Smallest point budget of a face (slivers and small fillets get at least this many points).
-FACE_POINT_FLOOR = 100_000
-#: Stability rule for I_D over the global refinement sequence: last and prior relative change.
-ID_STABILITY = (0.02, 0.03)
-#: A face whose share of int|K| exceeds this many times its share of area (and 1 %) is named.
-CONCENTRATION_RATIO = 20.0
-#: Numerator and denominator quantities of each metric.
-METRIC_QUANTITIES = {"I_D": ("int_abs_K", "A_valid"), "I_D_plus": ("int_K_plus", "A_valid"),
-                     "I_D_minus": ("int_K_minus", "A_valid"),
-                     "a_flat": ("A_flat", "A_classified"), "a_single": ("A_single", "A_classified"),
-                     "a_elliptic": ("A_elliptic", "A_classified"), "a_saddle": ("A_saddle", "A_classified")}
 #: Tree depth and class-line halvings of a graded neighbourhood quadrant.
 QUADRANT_MAX_DEPTH = 5
 QUADRANT_CLASS_DEPTH = 1
-#: Relative width of the threshold bands recorded with the class fractions (threshold_band).
-THRESHOLD_BAND = 0.1
-#: Rounds of refinement of the faces that carry the shape's excess error (faces_to_refine),
-#: each with BUDGET_GROWTH times the points (or their error's share of the points left).
-BUDGET_ROUNDS = 2
-BUDGET_GROWTH = 4
-#: A face integrated again disagrees with its earlier integration when their values differ by
-#: more than this multiple of their summed error estimates: the estimates are not to be trusted.
-DISAGREEMENT_SAFETY = 1.0
-#: ... and a disagreement qualifies a metric when it exceeds this share of its total's tolerance.
-DISAGREEMENT_SHARE = 0.1
 #: Rounds of grading at knot-grid nodes where a face's refinement stalled.
 STALL_ROUNDS = 2
 #: Points per face for the pointwise cross-check against OpenCascade.
@@ -452,220 +423,6 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     return CombinedQuadrature(parts, n_main)
 
 
-def _global_tolerance(faces, quantity, rtol):
-    """Tolerance of a quantity's total over the faces: rtol max(|total|, 1e-2 A) for areas,
-    rtol |total| for the K integrals."""
-    total = sum(f.quad.values[quantity] for f in faces)
-    scale = max(abs(total), 1e-2 * sum(f.quad.values["A"] for f in faces)
-                if quantity.startswith("A") else abs(total))
-    return rtol * scale
-
-
-def _global_converged(faces, quantity, rtol):
-    """Converged on every face, or the summed error estimate within the total's tolerance
-    (_global_tolerance): one error budget for the whole shape."""
-    if all(f.quad.converged[quantity] for f in faces):
-        return True
-    return sum(f.quad.errors[quantity] for f in faces) <= _global_tolerance(faces, quantity, rtol)
-
-
-def _quantity_total(faces, q):
-    if q == "A_classified":
-        return sum(f.quad.values[c] for f in faces for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
-    return sum(f.quad.values[q] for f in faces)
-
-
-def face_records(faces, integrals, lref, tau_H, tau_K):
-    """Per-face table: area, shares, face-level signature, status, surface type."""
-    A_tot = integrals.valid_area
-    K_tot = integrals.int_abs_K
-    rows = []
-    for f in faces:
-        r = f.result
-        ig = r.integrals()
-        vals = signature_values(ig, lref)
-        verdicts = [a["verdict"] for a in f.audits]
-        if not r.all_converged:
-            status = Status.UNCONVERGED
-        elif "divergent" in verdicts:
-            status = Status.SINGULAR
-        elif "inconclusive" in verdicts or "not_audited" in verdicts:
-            status = Status.CAUTION
-        elif "convergent" in verdicts:
-            status = Status.VALID_STAR
-        else:
-            status = Status.VALID
-        rows.append({
-            "face": f.number, "surface_type": f.surface_type, "evaluation": f.kind,
-            "area": r.values["A"], "valid_area": r.values["A_valid"],
-            "area_share": r.values["A_valid"] / A_tot if A_tot > 0 else None,
-            "K_share": r.values["int_abs_K"] / K_tot if K_tot > 0 else None,
-            "I_D": vals["I_D"], "I_D_plus": vals["I_D_plus"], "I_D_minus": vals["I_D_minus"],
-            "a_C": {n: vals[m] for n, m in zip(CLASS_NAMES, CLASS_METRICS)},
-            "status": status.value, "converged": bool(r.all_converged),
-            "refinements_disagree": dict(getattr(f, "disagreement", None) or {}),
-            "points": int(f.quad.n_points),
-            "depth_reached": int(r.depth_reached), "trimmed": not f.domain.is_rectangle,
-            "domain": ("polygon from the 3-D edges (%s)" % f.domain.fallback) if f.domain.fallback
-            else "exact p-curves" + (" (repaired: %s)" % "; ".join(f.domain.repairs)
-                                     if getattr(f.domain, "repairs", None) else ""),
-            "repairs": list(getattr(f.domain, "repairs", [])),
-            "degenerate": f.degenerate.to_dict(),
-        })
-    return rows
-
-
-def concentrated_faces(rows):
-    """Faces whose share of int|K| is far beyond their share of area (slivers, collapsed patches)."""
-    out = []
-    for r in rows:
-        a, k = r["area_share"], r["K_share"]
-        if a is not None and k is not None and k > 0.01 and (a <= 0 or k / a > CONCENTRATION_RATIO):
-            out.append({"face": r["face"], "area": r["area"], "area_share": a, "K_share": k})
-    return out
-
-
-def metric_validity(faces, integrals, values, opts, history):
-    """Validity record of each signature metric (paper section 4.3)."""
-    rtol = opts["rtol"]
-    audits = [a for f in faces for a in f.audits]
-    verdicts = [a["verdict"] for a in audits]
-    deg_count = sum(len(f.degenerate.points) + len(f.degenerate.sides) for f in faces)
-    fallback = [f.number for f in faces if getattr(f.domain, "fallback", None)]
-    # exact repairs of trim loops (gaps within a vertex's tolerance): no CAUTION, but evidence
-    repaired = [f.number for f in faces if getattr(f.domain, "repairs", None)]
-    rep, valid = integrals.represented_area, integrals.valid_area
-    out = {}
-    for m in METRICS:
-        num, den = METRIC_QUANTITIES[m]
-        conv = _global_converged(faces, num, rtol) and (
-            den == "A_classified" or _global_converged(faces, den, rtol))
-        if den == "A_classified":
-            conv = conv and all(_global_converged(faces, c, rtol) for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
-        evidence = {"error_estimate": sum(f.result.errors.get(num, 0.0) for f in faces),
-                    "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
-                    "points": int(sum(f.quad.n_points for f in faces))}
-        evidence["tolerance"] = _global_tolerance(faces, num, rtol)
-        if opts.get("protocol") == "paper":
-            evidence.update({"depth_limit": opts["max_depth"], "recheck_depth": opts["max_depth"] + 1,
-                             "rechecked_faces": [f.number for f in faces if f.quad.rechecked]})
-        else:
-            evidence.update({"depth_limit": opts["depth_limit"], "point_budget": opts["point_budget"],
-                             "budget_spent_faces": [f.number for f in faces if f.quad.budget_spent]})
-        if repaired:
-            evidence["repaired_domains"] = repaired
-        is_K = den == "A_valid"
-        if valid <= 0:
-            rec = MetricValidity(Status.NOT_EVALUATED, None, "no regular surface area to evaluate",
-                                 "no_valid_area", rep, valid, evidence)
-        elif not conv:
-            reason = ("adaptive quadrature did not reach the tolerance %g at depth %d, nor at %d"
-                      % (rtol, opts["max_depth"], opts["max_depth"] + 1) if opts.get("protocol") == "paper" else
-                      "the summed error estimate %.3g exceeds the tolerance %.3g (rtol %g of the total) with the "
-                      "point budget spent on face(s) %s" % (evidence["error_estimate"], evidence["tolerance"], rtol,
-                                                            ",".join(map(str, evidence["budget_spent_faces"])) or "none"))
-            rec = MetricValidity(Status.UNCONVERGED, values[m], reason, "quadrature_unresolved", rep, valid, evidence)
-        elif is_K and "divergent" in verdicts:
-            evidence["audit"] = audits
-            rec = MetricValidity(Status.SINGULAR, values[m],
-                                 "the |K| integral does not shrink with the neighbourhood of a singular point",
-                                 "non_integrable_singularity", rep, valid, evidence)
-        elif m == "I_D" and history and not _stable(history):
-            evidence["refinement_sequence"] = history
-            rec = MetricValidity(Status.UNCONVERGED, values[m],
-                                 "I_D changed by more than 2 %/3 % over the last global refinements",
-                                 "refinement_unstable", rep, valid, evidence)
-        elif is_K and ("inconclusive" in verdicts or "not_audited" in verdicts):
-            evidence["audit"] = audits
-            rec = MetricValidity(Status.CAUTION, values[m],
-                                 "degenerate points whose neighbourhood could not be shown regular or convergent",
-                                 "singular_set_unresolved", rep, valid, evidence)
-        elif is_K and "convergent" in verdicts:
-            evidence["audit"] = audits
-            pw = [a["decay_power"] for a in audits if a["verdict"] == "convergent"]
-            rec = MetricValidity(Status.VALID_STAR, values[m],
-                                 "convergent improper integral: |K| is unbounded at %d degenerate point(s); the "
-                                 "excluded |K| integral decays like r^%.2f" % (len(pw), min(pw)),
-                                 "convergent_improper", rep, valid, evidence)
-        elif _disagreeing(faces, num, den, rtol):
-            bad = _disagreeing(faces, num, den, rtol)
-            evidence["disagreeing_refinements"] = bad
-            rec = MetricValidity(Status.CAUTION, values[m],
-                                 "face(s) %s: a finer integration differs from the earlier one by more than their "
-                                 "error estimates, which are therefore not reliable there"
-                                 % ",".join(str(b["face"]) for b in bad), "error_estimate_unreliable",
-                                 rep, valid, evidence)
-        elif fallback:
-            evidence["approximate_domains"] = fallback
-            rec = MetricValidity(Status.CAUTION, values[m],
-                                 "face(s) %s: trim curves do not close; their domain is a polygon from the "
-                                 "3-D edges" % ",".join(str(n) for n in fallback), "approximate_trim_domain",
-                                 rep, valid, evidence)
-        else:
-            reason = ""
-            code = "converged"
-            if deg_count:
-                reason = ("converged; %d degenerate parameter point(s)/side(s) with bounded curvature "
-                          "(parameterisation degeneracy)" % deg_count if all(v == "regular" for v in verdicts)
-                          else "converged; singular points carry zero area")
-                code = "converged_degenerate_parameterisation"
-                evidence["audit"] = audits
-            rec = MetricValidity(Status.VALID, values[m], reason, code, rep, valid, evidence)
-        if m == "I_D" and history:
-            rec.evidence["refinement_sequence"] = history
-        if fallback and rec.code != "approximate_trim_domain":
-            rec.evidence["approximate_domains"] = fallback
-            rec.reason = (rec.reason + "; " if rec.reason else "") + (
-                "face(s) %s: trim curves do not close, domain from the 3-D edges" % ",".join(map(str, fallback)))
-        out[m] = rec
-    return out
-
-
-def _disagreeing(faces, num, den, rtol):
-    """Faces integrated again whose two integrations disagree on the quantities of a metric
-    (numerator num, denominator den) beyond their error estimates, by more than
-    DISAGREEMENT_SHARE of the total's tolerance (_global_tolerance), with both values."""
-    qs = {num, den} if den != "A_classified" else {num, "A_flat", "A_single", "A_elliptic", "A_saddle"}
-    tol = {q: _global_tolerance(faces, q, rtol) for q in qs}
-    out = []
-    for f in faces:
-        d = getattr(f, "disagreement", None) or {}
-        hit = {q: d[q] for q in sorted(qs) if q in d and abs(d[q][1] - d[q][0]) > DISAGREEMENT_SHARE * tol[q]}
-        if hit:
-            out.append({"face": f.number, "values": hit})
-    return out
-
-
-def _stable(history):
-    """I_D stability rule (section 5.2): last and prior relative changes <= 2 % and 3 %."""
-    seq = [h["I_D"] for h in history if h.get("I_D") is not None]
-    if len(seq) < 3:
-        return True
-    c_last = abs(seq[-1] - seq[-2]) / abs(seq[-1]) if seq[-1] else 0.0
-    c_prior = abs(seq[-2] - seq[-3]) / abs(seq[-2]) if seq[-2] else 0.0
-    return c_last <= ID_STABILITY[0] and c_prior <= ID_STABILITY[1]
-
-
-def refinement_history(faces, lref):
-    """Global I_D, I_D+, I_D- after each quadtree level (summed over faces), when recorded."""
-    per_face = [getattr(f.result, "history", None) for f in faces]
-    if not per_face or any(h is None for h in per_face):
-        return []
-    depth = max(len(h) for h in per_face)
-    out = []
-    for d in range(depth):
-        tot = {}
-        for h in per_face:
-            vals = h[min(d, len(h) - 1)]
-            for k, v in vals.items():
-                tot[k] = tot.get(k, 0.0) + v
-        A = tot.get("A_valid", 0.0)
-        out.append({"depth": d, "I_D": lref ** 2 * tot["int_abs_K"] / A if A else None,
-                    "I_D_plus": lref ** 2 * tot["int_K_plus"] / A if A else None,
-                    "I_D_minus": lref ** 2 * tot["int_K_minus"] / A if A else None})
-    return out
-
-
 def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, with_fields=True,
                 progress=None, order=None, rtol=None, max_depth=None, audit=True, display_deflection=None,
                 cross_checks=True, jobs=None, protocol=None, depth_limit=None, point_budget=None):
@@ -689,77 +446,6 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     finally:
         if isinstance(source, ReadInChild):
             source.close()
-
-
-def threshold_band(fields, th, width=THRESHOLD_BAND):
-    """Share of the valid area where K lies within width tau_K of +-tau_K, and where H lies
-    within width tau_H of +-tau_H, at the display tessellation's nodes (each node weighted by
-    a third of its triangles' areas): the area whose class would change with a threshold
-    moved by that much, i.e. how sensitive the class fractions are to the thresholds
-    (eq:class_thresholds)."""
-    P, T = np.asarray(fields.points, float), np.asarray(fields.triangles, int)
-    if T.size == 0:
-        return None
-    a = 0.5 * np.linalg.norm(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), axis=1)
-    w = np.bincount(T.ravel(), weights=np.repeat(a / 3.0, 3), minlength=len(P))
-    w = np.where(np.asarray(fields.valid, bool), w, 0.0)
-    total = w.sum()
-    if total <= 0:
-        return None
-    K, H = np.abs(np.asarray(fields.K, float)), np.abs(np.asarray(fields.H, float))
-    with np.errstate(invalid="ignore"):
-        k_band = np.abs(K - th.tau_K) <= width * th.tau_K
-        h_band = np.abs(H - th.tau_H) <= width * th.tau_H
-    return {"relative_width": width, "K_band_area_fraction": float(w[k_band].sum() / total),
-            "H_band_area_fraction": float(w[h_band].sum() / total),
-            "source": "display tessellation nodes"}
-
-
-def faces_to_refine(faces, rtol):
-    """Indices of the faces to refine again with more points: for every quantity whose
-    summed error estimate exceeds its total's tolerance (_global_tolerance), the faces whose
-    refinement the point budget stopped, largest error first, until the others' errors fit
-    half that tolerance."""
-    out = set()
-    for q in QUANTITIES:
-        tol = _global_tolerance(faces, q, rtol)
-        errs = [f.quad.errors[q] for f in faces]
-        if sum(errs) <= tol:
-            continue
-        rest = sum(errs)
-        for i in sorted(range(len(faces)), key=lambda i: -errs[i]):
-            if rest <= 0.5 * tol:
-                break
-            if faces[i].quad.budget_spent:
-                out.add(i)
-            rest -= errs[i]
-    return sorted(out)
-
-
-def face_point_budgets(opts, weights):
-    """Point budget of each face (None: no limit, the paper's protocol): its share weights
-    (n,) of opts["point_budget"], at least FACE_POINT_FLOOR."""
-    if opts.get("protocol") == "paper" or opts.get("point_budget") is None:
-        return [None] * len(weights)
-    total = int(opts["point_budget"])
-    return [max(min(FACE_POINT_FLOOR, total), int(total * w)) for w in weights]
-
-
-def quadrature_options(order=None, rtol=None, max_depth=None, protocol=None, depth_limit=None,
-                       point_budget=None):
-    """DEFAULT_QUADRATURE with the given settings (None: the default); InputError on a value
-    out of range."""
-    opts = dict(DEFAULT_QUADRATURE)
-    given = (("order", order), ("rtol", rtol), ("max_depth", max_depth), ("protocol", protocol),
-             ("depth_limit", depth_limit), ("point_budget", point_budget))
-    opts.update({k: v for k, v in given if v is not None})
-    if opts["protocol"] not in PROTOCOLS:
-        raise InputError("unknown quadrature protocol %r (known: %s)" % (opts["protocol"], ", ".join(PROTOCOLS)))
-    if int(opts["depth_limit"]) < 1 or int(opts["point_budget"]) < 1:
-        raise InputError("depth limit and point budget must be >= 1, got %r and %r"
-                         % (opts["depth_limit"], opts["point_budget"]))
-    opts["depth_limit"], opts["point_budget"] = int(opts["depth_limit"]), int(opts["point_budget"])
-    return opts
 
 
 def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rtol, max_depth, audit,
@@ -911,10 +597,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
                 results[i] = f
                 continue
             # the earlier and the finer integration must agree within their error estimates
-            f.disagreement = {q: [results[i].quad.values[q], f.quad.values[q]] for q in QUANTITIES
-                              if abs(f.quad.values[q] - results[i].quad.values[q])
-                              > DISAGREEMENT_SAFETY * (f.quad.errors[q] + results[i].quad.errors[q])
-                              + 1e-12 * abs(f.quad.values[q])}
+            f.disagreement = disagreement(results[i].quad, f.quad)
             results[i] = f
     if recorded:  # what the reading process made last: provenance, OpenCascade's values
         tp = time.perf_counter()

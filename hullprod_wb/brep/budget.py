@@ -1,0 +1,90 @@
+"""The work and error budgets of a BRep assessment: the quadrature settings and protocols,
+each face's share of the field points, the faces refined again where the shape's error sits,
+and whether a face's two integrations agree within their estimates."""
+from ..core.errors import InputError
+from .cubature import QUANTITIES
+from .metric_rules import global_tolerance
+
+#: Quadrature settings; all are options. protocol "budget": every face refined by its error
+#: estimates down to depth_limit levels, within a share of point_budget field points (its
+#: area share, at least FACE_POINT_FLOOR), the tolerances held by the shape's totals
+#: (metric_validity); "paper": the paper's campaign (section 5.2), each face on its own to
+#: max_depth, rechecked at max_depth + 1.
+DEFAULT_QUADRATURE = {"order": 5, "rtol": 1e-4, "max_depth": 5, "protocol": "budget", "depth_limit": 30,
+                      "point_budget": 8_000_000}
+
+
+PROTOCOLS = ("budget", "paper")
+
+
+#: Smallest point budget of a face (slivers and small fillets get at least this many points).
+FACE_POINT_FLOOR = 100_000
+
+
+#: Rounds of refinement of the faces that carry the shape's excess error (faces_to_refine),
+#: each with BUDGET_GROWTH times the points (or their error's share of the points left).
+BUDGET_ROUNDS = 2
+
+
+BUDGET_GROWTH = 4
+
+
+#: A face integrated again disagrees with its earlier integration when their values differ by
+#: more than this multiple of their summed error estimates: the estimates are not to be trusted.
+DISAGREEMENT_SAFETY = 1.0
+
+
+def faces_to_refine(faces, rtol):
+    """Indices of the faces to refine again with more points: for every quantity whose
+    summed error estimate exceeds its total's tolerance (global_tolerance), the faces whose
+    refinement the point budget stopped, largest error first, until the others' errors fit
+    half that tolerance."""
+    out = set()
+    for q in QUANTITIES:
+        tol = global_tolerance(faces, q, rtol)
+        errs = [f.quad.errors[q] for f in faces]
+        if sum(errs) <= tol:
+            continue
+        rest = sum(errs)
+        for i in sorted(range(len(faces)), key=lambda i: -errs[i]):
+            if rest <= 0.5 * tol:
+                break
+            if faces[i].quad.budget_spent:
+                out.add(i)
+            rest -= errs[i]
+    return sorted(out)
+
+
+def face_point_budgets(opts, weights):
+    """Point budget of each face (None: no limit, the paper's protocol): its share weights
+    (n,) of opts["point_budget"], at least FACE_POINT_FLOOR."""
+    if opts.get("protocol") == "paper" or opts.get("point_budget") is None:
+        return [None] * len(weights)
+    total = int(opts["point_budget"])
+    return [max(min(FACE_POINT_FLOOR, total), int(total * w)) for w in weights]
+
+
+def quadrature_options(order=None, rtol=None, max_depth=None, protocol=None, depth_limit=None,
+                       point_budget=None):
+    """DEFAULT_QUADRATURE with the given settings (None: the default); InputError on a value
+    out of range."""
+    opts = dict(DEFAULT_QUADRATURE)
+    given = (("order", order), ("rtol", rtol), ("max_depth", max_depth), ("protocol", protocol),
+             ("depth_limit", depth_limit), ("point_budget", point_budget))
+    opts.update({k: v for k, v in given if v is not None})
+    if opts["protocol"] not in PROTOCOLS:
+        raise InputError("unknown quadrature protocol %r (known: %s)" % (opts["protocol"], ", ".join(PROTOCOLS)))
+    if int(opts["depth_limit"]) < 1 or int(opts["point_budget"]) < 1:
+        raise InputError("depth limit and point budget must be >= 1, got %r and %r"
+                         % (opts["depth_limit"], opts["point_budget"]))
+    opts["depth_limit"], opts["point_budget"] = int(opts["depth_limit"]), int(opts["point_budget"])
+    return opts
+
+
+def disagreement(earlier, finer):
+    """Quantities on which a face's finer integration (CombinedQuadrature) differs from its
+    earlier one by more than DISAGREEMENT_SAFETY times their summed error estimates:
+    dict quantity -> [earlier value, finer value]."""
+    return {q: [earlier.values[q], finer.values[q]] for q in QUANTITIES
+            if abs(finer.values[q] - earlier.values[q])
+            > DISAGREEMENT_SAFETY * (finer.errors[q] + earlier.errors[q]) + 1e-12 * abs(finer.values[q])}
