@@ -306,6 +306,11 @@ def test_export_analysis(doc, tmp_path):
     assert float(row["I_D"]) == pytest.approx(a.I_D, rel=1e-12) and row["I_D_status"] == a.I_D_Status
     # a FreeCAD object has no file: the row names it and carries the sha256 of its shape
     assert row["input"].startswith("FreeCAD object %s (%s)" % (src.Name, src.Label)) and len(row["sha256"]) == 64
+    # the length and area columns name their unit, the document's working unit
+    unit = json.loads(a.ResultJSON)["provenance"]["units"]["working_unit"]
+    assert "FreeCAD: mm" in unit
+    assert {"L_ref [%s]" % unit, "represented_area [%s^2]" % unit, "valid_area [%s^2]" % unit} <= set(row)
+    assert float(row["L_ref [%s]" % unit]) == 1.0
     root = ET.parse(paths["vtp"]).getroot()
     piece = root.find("PolyData/Piece")
     from hullprod_wb.app import analysis_fields

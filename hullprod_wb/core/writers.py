@@ -60,8 +60,20 @@ def signature_row(doc):
     return row
 
 
+def length_unit(doc):
+    """The unit of the document's lengths: the working unit of a BRep (millimetres for IGES
+    and STEP), else 'model units' (a mesh carries the numbers of its file)."""
+    units = (doc.get("provenance") or {}).get("units") or {}
+    return units.get("working_unit") or "model units"
+
+
 def write_signature_csv(path, doc):
-    row = signature_row(doc)
+    """signature.csv: the one row of signature_row, its length and area columns headed with
+    their unit (I_D, I_D+-, a_C are dimensionless)."""
+    unit = length_unit(doc)
+    named = {"L_ref": "L_ref [%s]" % unit, "represented_area": "represented_area [%s^2]" % unit,
+             "valid_area": "valid_area [%s^2]" % unit}
+    row = {named.get(k, k): v for k, v in signature_row(doc).items()}
     with open(path, "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=list(row))
         w.writeheader()
