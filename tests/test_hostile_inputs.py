@@ -5,6 +5,7 @@ import json
 import os
 import struct
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -25,24 +26,12 @@ def run_cli(*args):
 
 @pytest.fixture(scope="module")
 def brep_files(tmp_path_factory):
-    """A two-face B-spline shell written as IGES, STEP and .brep."""
-    from hullprod_wb.freecad_env import import_freecad
-    FreeCAD = import_freecad()
-    import Part
-    faces = []
-    for k in range(2):
-        pts = [[FreeCAD.Vector(1000.0 * i + 4000.0 * k, 300.0 * j, 40.0 * (i - 1.5) ** 2 - 25.0 * (j - 1.5) ** 2)
-                for j in range(4)] for i in range(5)]
-        s = Part.BSplineSurface()
-        s.interpolate(pts)
-        faces.append(s.toShape())
-    shape = Part.makeShell(faces)
+    """A two-face B-spline shell written as IGES, STEP and .brep (the fuzz harness's base
+    files, made in a child process)."""
+    from fuzz_cases import GENERATE_BREP
     d = tmp_path_factory.mktemp("hostile")
-    out = {"iges": str(d / "two.igs"), "step": str(d / "two.step"), "brep": str(d / "two.brep")}
-    shape.exportIges(out["iges"])
-    shape.exportStep(out["step"])
-    shape.exportBrep(out["brep"])
-    return out
+    subprocess.run([sys.executable, "-c", GENERATE_BREP, str(d)], check=True, capture_output=True, timeout=120)
+    return {"iges": str(d / "base.igs"), "step": str(d / "base.step"), "brep": str(d / "base.brep")}
 
 
 @pytest.fixture(scope="module")
