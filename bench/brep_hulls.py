@@ -27,6 +27,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from reference_venv import ensure_reference_venv  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HULLS = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep"))
 #: L_ref per file (L_pp where the source gives it; else None: automatic).
@@ -91,14 +94,6 @@ def alternating(run_a, run_b, repeat, limit_b=None):
         if "error" in a[-1]:
             break
     return median_run(a), (median_run(b) if b else None)
-
-
-def ensure_reference_venv(venv):
-    exe = os.path.join(venv, "bin", "hullprod")
-    if not os.path.exists(exe):
-        subprocess.run([sys.executable, "-m", "venv", venv], check=True)
-        subprocess.run([os.path.join(venv, "bin", "pip"), "install", "-q", "hullprod==1.0.1"], check=True)
-    return exe
 
 
 def _find(obj, key):

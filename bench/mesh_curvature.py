@@ -25,6 +25,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from reference_venv import ensure_reference_venv  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
@@ -79,14 +82,6 @@ def run_ours(path):
         return {"wall": wall, "error": err.strip()[-300:]}
     doc = json.loads(out)
     return {"wall": wall, "rss": rss, "timings": doc["timings"], "I_D": doc["signature"]["I_D"]}
-
-
-def ensure_reference_venv(venv):
-    exe = os.path.join(venv, "bin", "hullprod")
-    if not os.path.exists(exe):
-        subprocess.run([sys.executable, "-m", "venv", venv], check=True)
-        subprocess.run([os.path.join(venv, "bin", "pip"), "install", "-q", "hullprod==1.0.1"], check=True)
-    return exe
 
 
 def run_reference(exe, path):
