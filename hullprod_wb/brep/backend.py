@@ -28,7 +28,6 @@ from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sam
 from .face_field import FaceField
 from .face_pool import map_faces, map_forked, resolve_jobs
 from .loading import BRepInput, load_brep
-from .lref_samples import read_and_start
 from .left_out import EmptyDomain, LeftOutFace, evaluated_faces, left_out_face, mark_left_out
 from .provenance import occ_face_area, shape_boxes, shape_provenance
 from .patches import Patches
@@ -456,12 +455,8 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     opts = quadrature_options(order, rtol, max_depth, protocol, depth_limit, point_budget)
     opts["audit"] = bool(audit)
     progress(0.0, "reading BRep")
-    if isinstance(source, ReadInChild):
-        if source.unsupported is None:
-            inp = RecordedShape(source)
-        else:  # a face the records do not describe: read the file here
-            source.close()
-            inp = read_and_start(source.path, source.faces)
+    if isinstance(source, ReadInChild):  # every face comes as records or OpenCascade's data
+        inp = RecordedShape(source)
     else:
         inp = source if isinstance(source, BRepInput) else load_brep(source, faces)
     recorded = isinstance(inp, RecordedShape)

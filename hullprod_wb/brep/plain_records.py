@@ -393,13 +393,6 @@ class ReadInChild:
             self._frames.append(self._child.receive(last=len(self._frames) == self.FRAMES - 1))
         return self._frames[k]
 
-    @property
-    def unsupported(self):
-        """None: every face is described (by plain numbers or as OpenCascade's data); reading
-        it waits for the first frame (and raises what the child raised)."""
-        self.frame(0)
-        return None
-
     def close(self):
         """Stop (if still running) and reap the child."""
         self._child.close()
