@@ -221,3 +221,13 @@ def test_disagreeing_refinements_qualify_a_metric_only_when_they_matter():
     bad = disagreeing_refinements(faces, "int_abs_K", "A_valid", 1e-4)
     assert [b["face"] for b in bad] == [2]
     assert disagreeing_refinements(faces, "A_flat", "A_classified", 1e-4) == []
+
+
+def test_grown_budgets_give_the_points_left_by_error_share_or_four_times_the_budget():
+    from hullprod_wb.brep.budget import BUDGET_GROWTH, grown_budgets
+    q = [SimpleNamespace(errors={"int_abs_K": e, "int_K_plus": 0.0, "int_K_minus": 0.0}) for e in (3.0, 1.0)]
+    # 8e6 points, 2e6 used: 6e6 left, shared 3:1
+    assert grown_budgets(q, [100_000, 100_000], 8_000_000, 2_000_000) == [4_500_000, 1_500_000]
+    # nothing left: four times the budget
+    assert grown_budgets(q, [100_000, 200_000], 1_000_000, 2_000_000) == [BUDGET_GROWTH * 100_000,
+                                                                          BUDGET_GROWTH * 200_000]

@@ -33,7 +33,8 @@ from .provenance import occ_face_area, shape_boxes, shape_provenance
 from .patches import Patches
 from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
 from .recorded_shape import FaceRecord, RecordedShape
-from .budget import BUDGET_GROWTH, BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, quadrature_options
+from .budget import (BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, grown_budgets,
+                     quadrature_options)
 from .cubature import GROUPS, QUANTITIES, NodePrefetch, integrate, patch_area, patch_groups
 from .metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
 from .trimmed_domain import TrimmedDomain
@@ -578,11 +579,10 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         redo = [ev[k] for k in faces_to_refine([results[i] for i in ev], opts["rtol"])]
         if not redo:
             break
-        used = sum(results[i].quad.n_points for i in ev)
-        share = np.array([sum(f.quad.errors[q] for q in QUANTITIES[2:5]) for f in (results[i] for i in redo)])
-        share = share / share.sum() if share.sum() > 0 else np.full(len(redo), 1.0 / len(redo))
-        for i, w in zip(redo, share):
-            face_budgets[i] = max(BUDGET_GROWTH * face_budgets[i], int(max(opts["point_budget"] - used, 0) * w))
+        grown = grown_budgets([results[i].quad for i in redo], [face_budgets[i] for i in redo],
+                              opts["point_budget"], sum(results[i].quad.n_points for i in ev))
+        for i, b in zip(redo, grown):
+            face_budgets[i] = b
         progress(0.95, "refining %d face(s) that carry the shape's error: %s"
                  % (len(redo), ", ".join("Face%d" % inp.faces[i][0] for i in redo)))
         again = map_faces(lambda k: face_work(redo[k]), len(redo), min(n_jobs, len(redo)),

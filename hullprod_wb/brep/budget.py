@@ -12,26 +12,18 @@ from .metric_rules import global_tolerance
 #: max_depth, rechecked at max_depth + 1.
 DEFAULT_QUADRATURE = {"order": 5, "rtol": 1e-4, "max_depth": 5, "protocol": "budget", "depth_limit": 30,
                       "point_budget": 8_000_000}
-
-
 PROTOCOLS = ("budget", "paper")
-
-
 #: Smallest point budget of a face (slivers and small fillets get at least this many points).
 FACE_POINT_FLOOR = 100_000
-
-
 #: Rounds of refinement of the faces that carry the shape's excess error (faces_to_refine),
 #: each with BUDGET_GROWTH times the points (or their error's share of the points left).
 BUDGET_ROUNDS = 2
-
-
 BUDGET_GROWTH = 4
-
-
 #: A face integrated again disagrees with its earlier integration when their values differ by
 #: more than this multiple of their summed error estimates: the estimates are not to be trusted.
 DISAGREEMENT_SAFETY = 1.0
+#: The K integrals, whose errors share out the points left among the faces refined again.
+K_INTEGRALS = ("int_abs_K", "int_K_plus", "int_K_minus")
 
 
 def faces_to_refine(faces, rtol):
@@ -53,6 +45,17 @@ def faces_to_refine(faces, rtol):
                 out.add(i)
             rest -= errs[i]
     return sorted(out)
+
+
+def grown_budgets(faces, budgets, total, used):
+    """The next point budgets of the faces refined again (their CombinedQuadratures faces,
+    budgets so far): BUDGET_GROWTH times the budget, or the face's share of the points left
+    of total (used so far) by its K integrals' error estimates, whichever is larger."""
+    err = [sum(f.errors[q] for q in K_INTEGRALS) for f in faces]
+    s = sum(err)
+    share = [e / s for e in err] if s > 0 else [1.0 / len(faces)] * len(faces)
+    left = max(total - used, 0)
+    return [max(BUDGET_GROWTH * b, int(left * w)) for b, w in zip(budgets, share)]
 
 
 def face_point_budgets(opts, weights):
