@@ -135,6 +135,7 @@ def metric_validity(faces, integrals, values, opts, history):
         if repaired:
             evidence["repaired_domains"] = repaired
         is_K = den == "A_valid"
+        disagreeing = disagreeing_refinements(faces, num, den, rtol)
         if valid <= 0:
             rec = MetricValidity(Status.NOT_EVALUATED, None, "no regular surface area to evaluate",
                                  "no_valid_area", rep, valid, evidence)
@@ -167,13 +168,12 @@ def metric_validity(faces, integrals, values, opts, history):
                                  "convergent improper integral: |K| is unbounded at %d degenerate point(s); the "
                                  "excluded |K| integral decays like r^%.2f" % (len(pw), min(pw)),
                                  "convergent_improper", rep, valid, evidence)
-        elif disagreeing_refinements(faces, num, den, rtol):
-            bad = disagreeing_refinements(faces, num, den, rtol)
-            evidence["disagreeing_refinements"] = bad
+        elif disagreeing:
+            evidence["disagreeing_refinements"] = disagreeing
             rec = MetricValidity(Status.CAUTION, values[m],
                                  "face(s) %s: a finer integration differs from the earlier one by more than their "
                                  "error estimates, which are therefore not reliable there"
-                                 % ",".join(str(b["face"]) for b in bad), "error_estimate_unreliable",
+                                 % ",".join(str(b["face"]) for b in disagreeing), "error_estimate_unreliable",
                                  rep, valid, evidence)
         elif fallback:
             evidence["approximate_domains"] = fallback

@@ -143,8 +143,9 @@ def points_from_refinement(results, domain, u_breaks, v_breaks, known=()):
     power of the distance, which the quadtree resolves only by ever smaller cells around
     the point, and the graded map and the nested-neighbourhood audit decide it instead
     (paper section 4.3). The same holds where the refinement converged only SMOOTH_DEPTH
-    or more levels deep, at its deepest cells. results: the QuadratureResults of the face's parts on the face's
-    own (u, v) domain; known: points already graded. Returns a list of (u, v)."""
+    or more levels deep, at its deepest cells. results: the QuadratureResults of the face's
+    parts on the face's own (u, v) domain; known: points already graded. Returns a list of
+    (u, v)."""
     (u0, u1), (v0, v1) = domain.u_range, domain.v_range
     gu = _grid_values(u0, u1, u_breaks)
     gv = _grid_values(v0, v1, v_breaks)
@@ -309,9 +310,9 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
     area A_k and E_k = int_{B_k} |K| dA (and K+, K-) through the graded map, samples max |K|
     on the boxes' outer edges, fits E_k ~ r_k^p, and forms I_D, I_D+, I_D- of the complement.
     The first AUDIT_FIRST_LEVELS boxes decide a bounded case, or a convergent one with p above
-    FIRST_CLEAR_POWER; any other
-    verdict is decided on the innermost of levels boxes (from AUDIT_FIT_FROM on), since a
-    curvature peak confined to a small core shows its power law only there. Returns evidence
+    FIRST_CLEAR_POWER; any other verdict is decided on the innermost of levels boxes (from
+    AUDIT_FIT_FROM on, _staged_verdict), since a curvature peak confined to a small core shows
+    its power law only there. Returns evidence
     and a verdict: 'regular' (|K| bounded: parameterisation degeneracy), 'convergent'
     (unbounded |K|, E_k -> 0 with p > CONVERGENT_POWER), 'divergent' (E_k does not decay),
     'inconclusive', or 'not_audited' (no quadrant lies inside the trimmed domain).
@@ -321,14 +322,9 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
     if not mine:
         return {"point": [pu, pv], "verdict": "not_audited",
                 "reason": "the neighbourhood of the point is crossed by trim curves"}
-    first = min(AUDIT_FIRST_LEVELS, levels)
-    rows = [_audit_row(face_field, mine, k, totals, tau_H, tau_K, order, rtol, max_depth, m) for k in range(first)]
-    verdict, power, growth = _decay_verdict(rows, 0)
-    clear = verdict == "regular" or (verdict == "convergent" and power > FIRST_CLEAR_POWER)
-    if not clear and levels > first:
-        rows += [_audit_row(face_field, mine, k, totals, tau_H, tau_K, order, rtol, max_depth, m)
-                 for k in range(first, levels)]
-        verdict, power, growth = _decay_verdict(rows, min(AUDIT_FIT_FROM, levels - 3))
+    rows, verdict, power, growth = _staged_verdict(
+        lambda k: _audit_row(face_field, mine, k, totals, tau_H, tau_K, order, rtol, max_depth, m),
+        levels, min(AUDIT_FIT_FROM, levels - 3))
     A, absK = totals["A_valid"], totals["int_abs_K"]
     L2 = lref ** 2
     for row in rows:
@@ -373,6 +369,21 @@ def _audit_row(face_field, quadrants, k, totals, tau_H, tau_K, order, rtol, max_
             kmax.append(float(np.nanmax(np.abs(np.where(f["regular"], f["K"], np.nan)))))
     return {"r_u": quadrants[0].ru * 2.0 ** -k, "r_v": quadrants[0].rv * 2.0 ** -k, **acc,
             "max_abs_K": max(kmax) if kmax else None, "converged": conv}
+
+
+def _staged_verdict(row_of, levels, fit_from, unbounded=False):
+    """(rows, verdict, p, growth) of nested neighbourhoods row_of(k), k = 0, 1, ...: the first
+    AUDIT_FIRST_LEVELS rows decide a bounded case ('regular') or a convergent one with p above
+    FIRST_CLEAR_POWER; otherwise all levels rows are made and decided from rows[fit_from:]
+    (_decay_verdict)."""
+    first = min(AUDIT_FIRST_LEVELS, levels)
+    rows = [row_of(k) for k in range(first)]
+    verdict, power, growth = _decay_verdict(rows, 0, unbounded)
+    clear = verdict == "regular" or (verdict == "convergent" and power > FIRST_CLEAR_POWER)
+    if not clear and levels > first:
+        rows += [row_of(k) for k in range(first, levels)]
+        verdict, power, growth = _decay_verdict(rows, fit_from, unbounded)
+    return rows, verdict, power, growth
 
 
 def _decay_verdict(rows, fit_from, unbounded=False):
@@ -426,10 +437,11 @@ class GradedStripField:
 
 def probe_side(face_field, domain, side, u_breaks, v_breaks, levels=12, order=5, m=GRADING_POWER):
     """Behaviour of |K| approaching a collapsed side: max |K| on lines r_k = r0 2^-k from it
-    and, on an untrimmed face, the |K| integral E_k over the strip of width r_k along the side
-    (graded map GradedStripField), fitted as E_k ~ r_k^p on the innermost strips. Verdict as
-    audit_point's: 'regular' (|K| bounded), 'convergent' (p > CONVERGENT_POWER), 'divergent'
-    (p <= 0), else 'inconclusive'. On a trimmed face the strips are cut by the domain."""
+    and, where it grows, the |K| integral E_k over the strip of width r_k along the side
+    (graded map GradedStripField; on a trimmed face the strip is cut by the domain), decided
+    as audit_point's neighbourhoods are (_staged_verdict, the innermost from levels // 2):
+    'regular' (|K| bounded), 'convergent' (p > CONVERGENT_POWER), 'divergent' (p <= 0), else
+    'inconclusive'."""
     (u0, u1), (v0, v1) = domain.u_range, domain.v_range
     g = np.linspace(0.01, 0.99, 41)
     kmax, radii = [], []
@@ -465,13 +477,7 @@ def probe_side(face_field, domain, side, u_breaks, v_breaks, levels=12, order=5,
                         1.0, 1.0, order=order, rtol=1e-6, max_depth=3, recheck=False, class_max_depth=0, lines=False)
         return {"r_u": r, "int_abs_K": res.values["int_abs_K"], "max_abs_K": kmax[k]}
 
-    # as audit_point: the first strips decide a convergent case, the innermost any other
-    first = min(AUDIT_FIRST_LEVELS, levels)
-    rows = [strip(k) for k in range(first)]
-    verdict, power, _ = _decay_verdict(rows, 0, unbounded=True)
-    if not (verdict == "convergent" and power > FIRST_CLEAR_POWER) and levels > first:
-        rows += [strip(k) for k in range(first, levels)]
-        verdict, power, _ = _decay_verdict(rows, levels // 2, unbounded=True)
+    rows, verdict, power, _ = _staged_verdict(strip, levels, levels // 2, unbounded=True)
     out["strip_abs_K"] = [row["int_abs_K"] for row in rows]
     out["decay_power"] = power
     out["verdict"] = verdict
