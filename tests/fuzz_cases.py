@@ -158,16 +158,10 @@ def degenerate_triangles(data, rng, base):
             t = 84 + 50 * rng.randrange(n)
             out[t + 24:t + 36] = out[t + 12:t + 24]  # second vertex = first
         return bytes(out)
-    if base == "obj":
+    if base in ("obj", "ply_ascii"):  # triangle lines "f a b c" / "3 a b c": second vertex = first
+        head = b"f " if base == "obj" else b"3 "
         lines = data.split(b"\n")
-        fi = [i for i, line in enumerate(lines) if line.startswith(b"f ")]
-        for i in rng.sample(fi, min(len(fi), rng.randint(1, 5))):
-            w = lines[i].split()
-            lines[i] = b" ".join([w[0], w[1], w[1], w[2]])
-        return b"\n".join(lines)
-    if base == "ply_ascii":
-        lines = data.split(b"\n")
-        fi = [i for i, line in enumerate(lines) if line.startswith(b"3 ")]
+        fi = [i for i, line in enumerate(lines) if line.startswith(head)]
         for i in rng.sample(fi, min(len(fi), rng.randint(1, 5))):
             w = lines[i].split()
             lines[i] = b" ".join([w[0], w[1], w[1], w[2]])
