@@ -81,6 +81,37 @@ def test_mesh_files_cut_anywhere_are_truncated(mesh_files, fmt, tmp_path):
             check_file(cut(path, f, tmp_path), kind)
 
 
+@pytest.mark.parametrize("count_type,order", [("uchar", "<"), ("ushort", ">"), ("uint", "<")])
+def test_binary_ply_face_lists_of_mixed_lengths(tmp_path, count_type, order):
+    """Runs of triangles, quads and pentagons in a binary PLY: the whole file passes, and the
+    reason of a cut or an overstated face count names the face the file ends in."""
+    import struct
+    cf = {"uchar": "B", "ushort": "H", "uint": "I"}[count_type]
+    counts = [3] * 700 + [4] * 5 + [3, 4] * 50 + [5] + [3] * 300
+    fmt = "binary_little_endian" if order == "<" else "binary_big_endian"
+
+    def ply(declared, faces):
+        head = ("ply\nformat %s 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                "property float z\nelement face %d\nproperty list %s int vertex_indices\nend_header\n"
+                % (fmt, declared, count_type)).encode()
+        body = struct.pack(order + "15f", *range(15))
+        body += b"".join(struct.pack(order + cf + "%di" % c, c, *range(c)) for c in faces)
+        p = tmp_path / ("f%d_%d.ply" % (declared, len(faces)))
+        p.write_bytes(head + body)
+        return str(p)
+
+    assert check_file(ply(len(counts), counts), "ply")["declared_elements"] == {"vertex": 5, "face": len(counts)}
+    with pytest.raises(InputError, match=r"ends in face %d:" % (len(counts) + 1)):
+        check_file(ply(len(counts) + 1, counts), "ply")
+    with pytest.raises(InputError, match=r"ends in face 751:"):
+        check_file(ply(len(counts), counts[:750]), "ply")
+    with pytest.raises(InputError, match="ends in its last face"):
+        data = open(ply(len(counts), counts), "rb").read()
+        cut = tmp_path / "cut.ply"
+        cut.write_bytes(data[:-2])
+        check_file(str(cut), "ply")
+
+
 @needs_freecad
 def test_iges_reasons_name_what_is_missing(brep_files, tmp_path):
     lines = open(brep_files["iges"], "rb").read().split(b"\n")
