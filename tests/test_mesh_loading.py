@@ -286,3 +286,13 @@ def test_unique_rows_exact_even_with_hash_collisions(monkeypatch):
     monkeypatch.setattr(L, "_mix", lambda z: z & np.uint64(1))  # almost every row collides
     f2, i2 = L.unique_rows(B)
     assert np.array_equal(f2, first) and np.array_equal(i2, inverse)
+
+
+def test_file_hash_follows_the_file(tmp_path):
+    """The input record's SHA-256 is computed once a file, and again when the file changes."""
+    import hashlib
+    p = tmp_path / "m.stl"
+    for k, content in enumerate((b"solid a\nendsolid a\n", b"solid b\nendsolid b\n")):
+        p.write_bytes(content)
+        os.utime(p, ns=(10**18 + k, 10**18 + k))
+        assert sha256_file(str(p)) == hashlib.sha256(content).hexdigest()

@@ -12,7 +12,15 @@ BREP_FORMATS = {".igs": "iges", ".iges": "iges", ".step": "step", ".stp": "step"
 DOCUMENT_FORMATS = {".fcstd": "fcstd"}
 
 
-def sha256_file(path, chunk=1 << 20):
+def sha256_file(path):
+    """Hex SHA-256 of the file's bytes, computed once for the same path, size and
+    modification time (the input record asks for it before the reader and again in it)."""
+    st = os.stat(path)
+    return _sha256(os.path.abspath(path), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=64)
+def _sha256(path, size, mtime_ns, chunk=1 << 20):
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(chunk), b""):
