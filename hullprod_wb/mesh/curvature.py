@@ -25,13 +25,12 @@ face winding and pointing out of a sphere, k1 = k2 = -1/R and H = -1/R, as for a
 face with its outward normal; reversing the winding flips k1, k2 and H and keeps K. Everything is vectorised over faces (three
 passes over the corner slots) and accumulated per vertex with np.bincount.
 """
-import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.errors import InputError
+from .threads import default_threads, run_blocks, run_parts
 from .topology import vertex_flags
 
 
@@ -111,11 +110,7 @@ def _vertex_sums(index, weights, n, threads):
 
     def count(kj):
         return np.bincount(index[kj[1]], weights=weights[kj[0]][kj[1]], minlength=n)
-    if threads > 1:
-        with ThreadPoolExecutor(max_workers=threads) as pool:
-            parts = list(pool.map(count, jobs))
-    else:
-        parts = [count(kj) for kj in jobs]
+    parts = run_parts([lambda kj=kj: count(kj) for kj in jobs], threads)
     return [sum(parts[3 * k + j] for j in range(3)).astype(float, copy=False) for k in range(len(weights))]
 
 
@@ -190,26 +185,6 @@ def _corner_areas(l0, l1, l2, area):
 def _blocks(m, size=None):
     size = size or BLOCK
     return [slice(a, min(a + size, m)) for a in range(0, m, size)]
-
-
-def run_blocks(fn, blocks, threads):
-    """Apply fn to every block; blocks write disjoint slices, so threads may share them
-    (numpy releases the GIL inside its array loops)."""
-    if threads > 1 and len(blocks) > 1:
-        with ThreadPoolExecutor(max_workers=threads) as pool:
-            list(pool.map(fn, blocks))
-    else:
-        for sl in blocks:
-            fn(sl)
-
-
-def default_threads():
-    """Worker threads for the block passes: up to 2, never more than the CPUs available."""
-    try:
-        ncpu = len(os.sched_getaffinity(0))
-    except AttributeError:
-        ncpu = os.cpu_count() or 1
-    return max(1, min(2, ncpu))
 
 
 def _normal_block(Vt, fc, cn, area, sl):

@@ -31,7 +31,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .curvature import check_arrays, default_threads
+from .curvature import check_arrays
+from .threads import default_threads
 from .face_geometry import edge_lengths, face_measures, normal_angles, unit_normals
 from .topology import edge_table
 

@@ -1,0 +1,32 @@
+"""Threads for the mesh path's array passes: numpy's array loops and scipy's sparse
+constructions release the GIL, so passes over disjoint parts of the arrays run side by side
+on the cores (the command's machine: 2 at most are used)."""
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+
+def default_threads():
+    """Worker threads for the block passes: up to 2, never more than the CPUs available."""
+    try:
+        ncpu = len(os.sched_getaffinity(0))
+    except AttributeError:
+        ncpu = os.cpu_count() or 1
+    return max(1, min(2, ncpu))
+
+
+def run_blocks(fn, blocks, threads):
+    """Apply fn to every block; blocks write disjoint slices, so threads may share them."""
+    if threads > 1 and len(blocks) > 1:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            list(pool.map(fn, blocks))
+    else:
+        for sl in blocks:
+            fn(sl)
+
+
+def run_parts(fns, threads):
+    """[fn() for fn in fns], the calls on up to threads threads."""
+    if threads > 1 and len(fns) > 1:
+        with ThreadPoolExecutor(max_workers=threads) as pool:
+            return list(pool.map(lambda fn: fn(), fns))
+    return [fn() for fn in fns]
