@@ -129,6 +129,13 @@ def test_gui_time_against_command_line(gui, fname):
     print("\n%s: GUI %.2f s (runs %s), command line %.2f s (runs %s): %.2fx"
           % (fname, gui_s, ", ".join("%.2f" % x for x in rec["seconds"]), cli_s,
              ", ".join("%.2f" % x for x in rec["cli_seconds"]), gui_s / cli_s))
+    for line in rec.get("timelines") or []:
+        print("  GUI timeline (s): %s" % ", ".join("%s %.2f" % kv for kv in sorted((line or {}).items())))
+    for cpu in rec.get("gui_cpu") or []:
+        print("  GUI CPU (s): worker and its face processes %.2f, FreeCAD's process %.2f" % (cpu["worker"], cpu["gui"]))
+    for info in rec.get("cli_info") or []:
+        print("  command line: CPU %.2f s, jobs %s, timings (s) %s" % (
+            info["cpu"], info.get("jobs"), ", ".join("%s %.2f" % kv for kv in sorted((info.get("timings") or {}).items()))))
     assert rec["I_D"] is not None and np.isfinite(rec["I_D"]) and rec["lref"] > 0
 
 

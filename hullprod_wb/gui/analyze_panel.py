@@ -327,8 +327,15 @@ class AnalyzePanel:
         started = getattr(proc, "started_at", self.t_start)
         self.timeline = {"process_seconds": proc.seconds, "noticed_after": time.perf_counter() - started,
                          "done_after": getattr(proc, "done_at", float("nan")) - started}
+        done = getattr(proc, "done_event", None) or {}
+        for key in ("jobs", "threads_at_start"):
+            if done.get(key) is not None:
+                self.timeline["worker_" + key] = done[key]
+        for key, value in (done.get("timings") or {}).items():
+            self.timeline["worker_" + key] = value
         try:
             a = proc.result()
+            self.timeline["result_loaded_after"] = time.perf_counter() - started
             record_planar(a, self.planar[i] if self.skip_planar else [])
             made = make_analysis(obj, faces=faces, skip_planar=self.skip_planar and bool(self.planar[i]),
                                  assessment=(a, proc.seconds or 0.0), **self.kw)
@@ -341,6 +348,7 @@ class AnalyzePanel:
             self.errors.append(str(exc))
             dialogs.error("analysis of %s failed" % obj.Label, " ".join(str(exc).split()))
         else:
+            self.timeline["analysis_made_after"] = time.perf_counter() - started
             self.made.append(made)
             if preferences.get("HideSourceOnAnalyze") and getattr(obj, "ViewObject", None) is not None:
                 obj.ViewObject.Visibility = False

@@ -679,13 +679,26 @@ def _():
 
 
 def cli_seconds(path):
-    """Wall time of `./hullprod analyze path` of this checkout, and its exit code."""
+    """Wall time of `./hullprod analyze --json path` of this checkout, its exit code, its
+    last stderr line, and (user+system CPU seconds of it and its face processes, its face
+    processes' count "jobs" and per-phase "timings" from the JSON)."""
+    import resource
     root = os.path.dirname(RESULT["package"])
     env = dict(os.environ)
     env.pop("PYTHONHOME", None)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    r = subprocess.run([os.path.join(root, "hullprod"), "analyze", path], env=env, capture_output=True, text=True)
-    return time.perf_counter() - t, r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
+    r = subprocess.run([os.path.join(root, "hullprod"), "analyze", "--json", "--quiet", path], env=env,
+                       capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    info = {"cpu": after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime}
+    try:
+        doc = json.loads(r.stdout)
+        info.update(jobs=doc["options"].get("jobs"), timings=doc.get("timings"))
+    except (ValueError, KeyError, TypeError):
+        pass
+    return wall, r.returncode, (r.stderr.strip().splitlines() or [""])[-1], info
 
 
 @step("gui_vs_cli")
@@ -702,10 +715,11 @@ def _():
             continue
         rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None}
         for _ in range(runs):
-            seconds, code, last = cli_seconds(os.path.join(SHARED, "brep", fname))
+            seconds, code, last, info = cli_seconds(os.path.join(SHARED, "brep", fname))
             if code != 0:
                 rec["cli_error"] = "exit %d: %s" % (code, last)
             rec["cli_seconds"].append(seconds)
+            rec.setdefault("cli_info", []).append(info)
             n_err = len([m for m in dialogs.LOG if m[0] == "error"])
             FreeCADGui.Selection.clearSelection()
             FreeCADGui.Selection.addSelection(src)
@@ -713,7 +727,15 @@ def _():
             p = analyze_panel.LAST_PANEL
             wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)  # the user reads the panel
             rec["proposal"] = p.auto_radio.text()
+            import resource
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            own = resource.getrusage(resource.RUSAGE_SELF)
             made = p.run()
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            own_after = resource.getrusage(resource.RUSAGE_SELF)
+            rec.setdefault("gui_cpu", []).append(
+                {"worker": after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime,
+                 "gui": own_after.ru_utime - own.ru_utime + own_after.ru_stime - own.ru_stime})
             errs = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
             FreeCADGui.Control.closeDialog()
             if errs or not made:
