@@ -153,6 +153,12 @@ def test_analyze_brep_through_panel(gui, shots):
     assert rec["panel_shown"] and "automatic" in rec["proposal"] and "principal-axis" in rec["method"]
     assert rec["advanced_enabled"] is True  # BRep: quadrature settings offered
     assert rec["quadrature"] == [6, 2e-4, 4]  # the advanced settings reach the object
+    # the command line's defaults (brep.budget.DEFAULT_QUADRATURE), each setting explained
+    assert rec["quadrature_defaults"] == ["budget", 8000000, 30] and all(rec["quadrature_tips"])
+    # each protocol shows its own settings: the maximum depth only under paper
+    assert rec["protocol_rows"] == {"paper": ["maximum depth"], "budget": ["point budget", "depth limit"]}
+    assert rec["budget_settings"] == ["budget", 2000000, 20]  # recorded on the analysis object
+    assert rec["run_options"] == {"protocol": "budget", "point_budget": 2000000, "depth_limit": 20}  # and run with
     assert rec["no_selection_error"] and "select" in rec["no_selection_error"][0]
     assert rec["status"] == "ok" and rec["representation"] == "brep" and rec["lref"] == 1.0
     assert rec["I_D_status"] in STATUSES

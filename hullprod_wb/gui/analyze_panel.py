@@ -12,6 +12,7 @@ from ..app import preferences
 from ..app.analysis import make_analysis, record_planar
 from ..app.assessment_process import AssessmentProcess, WorkerFailed
 from ..app.planar import planar_faces
+from ..brep.budget import FACE_POINT_FLOOR, PROTOCOLS
 from ..core.errors import InputError
 from . import dialogs
 from .qt import QtCore, QtGui, QtWidgets
@@ -136,12 +137,38 @@ class AnalyzePanel:
         self.order_spin.setRange(1, 30)
         self.order_spin.setValue(int(d["order"]))
         self.rtol_edit = _float_edit(d["rtol"], "local relative tolerance of the adaptive quadrature")
+        self.protocol_combo = QtWidgets.QComboBox()
+        self.protocol_combo.addItems(list(PROTOCOLS))
+        self.protocol_combo.setCurrentIndex(max(0, self.protocol_combo.findText(str(d["protocol"]))))
+        self.protocol_combo.setToolTip(
+            "budget: cells refined where the error estimates are largest, within the point budget, "
+            "until the shape's totals meet the tolerance\npaper: every face refined to the maximum "
+            "depth on its own and rechecked one level deeper (the paper's campaign)")
+        self.budget_spin = QtWidgets.QSpinBox()
+        self.budget_spin.setRange(FACE_POINT_FLOOR, 2 ** 31 - 1)
+        self.budget_spin.setSingleStep(1_000_000)
+        self.budget_spin.setGroupSeparatorShown(True)
+        self.budget_spin.setValue(int(d["point_budget"]))
+        self.budget_spin.setToolTip("field points of the whole assessment, shared by the faces by area "
+                                    "(each face at least %d)" % FACE_POINT_FLOOR)
+        self.depth_limit_spin = QtWidgets.QSpinBox()
+        self.depth_limit_spin.setRange(1, 60)
+        self.depth_limit_spin.setValue(int(d["depth_limit"]))
+        self.depth_limit_spin.setToolTip("levels a cell may be refined below its surface patch")
         self.depth_spin = QtWidgets.QSpinBox()
         self.depth_spin.setRange(0, 20)
         self.depth_spin.setValue(int(d["max_depth"]))
+        self.depth_spin.setToolTip("depth every face is refined to (rechecked one level deeper)")
+        self.order_spin.setToolTip("Gauss-Legendre points per direction of a cell")
         f.addRow("Gauss-Legendre order", self.order_spin)
         f.addRow("relative tolerance", self.rtol_edit)
+        f.addRow("protocol", self.protocol_combo)
+        f.addRow("point budget", self.budget_spin)
+        f.addRow("depth limit", self.depth_limit_spin)
         f.addRow("maximum depth", self.depth_spin)
+        self.quadrature_form = f
+        self.protocol_combo.currentIndexChanged.connect(self._show_protocol_rows)
+        self._show_protocol_rows()
         v = QtWidgets.QVBoxLayout(self.advanced)
         v.addWidget(inner)
         inner.setVisible(False)
@@ -243,6 +270,17 @@ class AnalyzePanel:
         if text != self.message.text():
             self.message.setText(text)
 
+    def _show_protocol_rows(self, *_):
+        """The settings of the chosen protocol only: point budget and depth limit under
+        budget, the maximum depth under paper."""
+        paper = self.protocol_combo.currentText() == "paper"
+        for widget, shown in ((self.budget_spin, not paper), (self.depth_limit_spin, not paper),
+                              (self.depth_spin, paper)):
+            widget.setVisible(shown)
+            label = self.quadrature_form.labelForField(widget)
+            if label is not None:
+                label.setVisible(shown)
+
     # -- values -------------------------------------------------------------------------------
     def values(self):
         """Keyword arguments of make_analysis from the widgets (InputError on bad text)."""
@@ -257,14 +295,15 @@ class AnalyzePanel:
         out = {"h_f": num(self.hf_edit, "h_f"), "k_f": num(self.kf_edit, "k_f"),
                "lref": num(self.lref_edit, "L_ref") if self.explicit_radio.isChecked() else None}
         out.update(order=self.order_spin.value(), rtol=num(self.rtol_edit, "relative tolerance"),
-                   max_depth=self.depth_spin.value())
+                   max_depth=self.depth_spin.value(), protocol=self.protocol_combo.currentText(),
+                   point_budget=self.budget_spin.value(), depth_limit=self.depth_limit_spin.value())
         return out
 
     @staticmethod
     def _options(kw, obj):
         opts = {"lref": kw["lref"], "h_f": kw["h_f"], "k_f": kw["k_f"]}
         if hasattr(obj, "Shape"):
-            opts.update(order=kw["order"], rtol=kw["rtol"], max_depth=kw["max_depth"])
+            opts.update({k: kw[k] for k in ("order", "rtol", "max_depth", "protocol", "point_budget", "depth_limit")})
         return opts
 
     # -- run --------------------------------------------------------------------------------------

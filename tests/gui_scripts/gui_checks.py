@@ -146,12 +146,24 @@ def screen_shot(name):
 
 
 def quick_quadrature(p):
-    """BRep quadrature through the panel's advanced settings (order 6, rtol 2e-4, depth 4:
-    not the defaults, so the test sees them reach the analysis object)."""
+    """BRep quadrature through the panel's advanced settings (order 6, rtol 2e-4, budget
+    protocol with 2e6 points and depth limit 20, maximum depth 4: not the defaults, so the
+    test sees them reach the analysis object). Returns which rows the panel showed under
+    each protocol."""
     p.advanced.setChecked(True)
+    process(20)
     p.order_spin.setValue(6)
     p.rtol_edit.setText("0.0002")
+    rows = {}
+    for protocol in ("paper", "budget"):
+        p.protocol_combo.setCurrentIndex(p.protocol_combo.findText(protocol))
+        process(20)
+        rows[protocol] = [name for name, w in (("point budget", p.budget_spin), ("depth limit", p.depth_limit_spin),
+                                               ("maximum depth", p.depth_spin)) if w.isVisible()]
+    p.budget_spin.setValue(2000000)
+    p.depth_limit_spin.setValue(20)
     p.depth_spin.setValue(4)
+    return rows
 
 
 def colour_check(a):
@@ -215,10 +227,13 @@ def _():
     shown = FreeCADGui.Control.activeDialog()
     p.explicit_radio.setChecked(True)
     p.lref_edit.setText("1.0")
-    quick_quadrature(p)
+    defaults = [p.protocol_combo.currentText(), p.budget_spin.value(), p.depth_limit_spin.value()]
+    tips = [bool(w.toolTip()) for w in (p.protocol_combo, p.budget_spin, p.depth_limit_spin, p.depth_spin)]
+    rows = quick_quadrature(p)
     window_shot("analyze_panel")
     texts = {"proposal": p.auto_radio.text(), "method": p.method_label.text(),
-             "advanced_enabled": p.advanced.isEnabled()}
+             "advanced_enabled": p.advanced.isEnabled(), "protocol_rows": rows, "quadrature_defaults": defaults,
+             "quadrature_tips": tips}
     made = p.run()
     selected_after = [o.Name for o in FreeCADGui.Selection.getSelection()]
     FreeCADGui.Control.closeDialog()
@@ -229,6 +244,8 @@ def _():
     texts["precision_types"] = [a.getTypeIdOfProperty(n) for n in ("Hf", "Kf", "QuadratureRtol")]
     return {"panel_shown": bool(shown), "no_selection_error": [m[2] for m in no_sel], **texts,
             "quadrature": [a.QuadratureOrder, a.QuadratureRtol, a.QuadratureMaxDepth],
+            "budget_settings": [a.QuadratureProtocol, a.QuadraturePointBudget, a.QuadratureDepthLimit],
+            "run_options": {k: json.loads(a.ResultJSON)["options"].get(k) for k in ("protocol", "point_budget", "depth_limit")},
             "status": a.Status, "representation": a.Representation, "lref": a.LrefUsed,
             "I_D": a.I_D, "I_D_status": a.I_D_Status, "source_visible": src.ViewObject.Visibility}
 
