@@ -106,6 +106,7 @@ def test_long_run_keeps_the_gui_responsive_and_cancels(gui):
     assert rec["redraws"] >= rec["run_seconds"] and rec["max_gap"] < 1.0, rec
     assert rec["cancel_seconds"] is not None and rec["cancel_seconds"] < 1.0, rec
     assert rec["message"].startswith("Cancelled"), rec["message"]
+    assert rec["message_in_view"] == {"1600x1000": True, "1280x720": True}  # the line is not clipped
     assert rec["created"] == 0 and rec["errors"] == []
     assert rec["proposal"].startswith("automatic: ") and "computing" not in rec["proposal"]  # arrived meanwhile
     assert_not_blank(rec["png_running"])

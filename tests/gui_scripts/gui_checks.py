@@ -104,6 +104,23 @@ def shot(name, w=1000, h=620):
     return path
 
 
+def widget_in_view(widget):
+    """True when widget is shown whole: inside the viewport of every scroll area it sits in
+    (the task view scrolls) and inside the main window."""
+    if not widget.isVisible():
+        return False
+    rect = QtCore.QRect(widget.mapToGlobal(QtCore.QPoint(0, 0)), widget.size())
+    parent = widget.parentWidget()
+    while parent is not None:
+        if isinstance(parent, QtWidgets.QAbstractScrollArea):
+            vp = parent.viewport()
+            if not QtCore.QRect(vp.mapToGlobal(QtCore.QPoint(0, 0)), vp.size()).contains(rect):
+                return False
+        parent = parent.parentWidget()
+    mw = FreeCADGui.getMainWindow()
+    return QtCore.QRect(mw.mapToGlobal(QtCore.QPoint(0, 0)), mw.size()).contains(rect)
+
+
 def window_shot(name):
     """The whole main window with the 3D view pasted in (GL contents do not grab)."""
     FreeCADGui.Selection.clearSelection()
@@ -685,6 +702,15 @@ def _():
     gaps = [b - a for a, b in zip([t0] + times, times + [t1]) if a >= t0 and b <= t1 + 1e-9]
     shot_cancel = window_shot("analyze_cancelled")
     msg = p.message.text()
+    message_in_view = {}
+    mw = FreeCADGui.getMainWindow()
+    for w, h in ((1600, 1000), (1280, 720)):
+        mw.showNormal()
+        mw.resize(w, h)
+        process(300)
+        message_in_view["%dx%d" % (w, h)] = widget_in_view(p.message)
+    mw.resize(1500, 950)
+    process(100)
     FreeCADGui.Control.closeDialog()
     made = [o for o in src.Document.Objects if getattr(o, "Source", None) == src]
     FreeCAD.closeDocument(src.Document.Name)
@@ -692,7 +718,7 @@ def _():
             "max_gap": max(gaps) if gaps else None, "progress_text": progress_text,
             "cancel_seconds": gone, "message": msg, "created": len(made), "proposal": proposal_while_running,
             "errors": [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:],
-            "png_running": shot_running, "png_cancelled": shot_cancel}
+            "png_running": shot_running, "png_cancelled": shot_cancel, "message_in_view": message_in_view}
 
 
 def cli_seconds(path):
