@@ -132,6 +132,8 @@ def test_gui_time_against_command_line(gui, fname):
              ", ".join("%.2f" % x for x in rec["cli_seconds"]), gui_s / cli_s))
     for line in rec.get("timelines") or []:
         print("  GUI timeline (s): %s" % ", ".join("%s %.2f" % kv for kv in sorted((line or {}).items())))
+    if rec.get("idle_cpu_share") is not None:
+        print("  FreeCAD's process idle (event loop only): %.2f CPU s per s" % rec["idle_cpu_share"])
     for cpu in rec.get("gui_cpu") or []:
         print("  GUI CPU (s): worker and its face processes %.2f, FreeCAD's process %.2f" % (cpu["worker"], cpu["gui"]))
     for info in rec.get("cli_info") or []:

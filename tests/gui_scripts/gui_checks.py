@@ -750,13 +750,19 @@ def _():
     `./hullprod analyze` on shared hulls, all faces, default settings; the two alternate
     (a command-line run before each GUI run) so that both see the same machine."""
     from hullprod_wb.gui import analyze_panel, dialogs
+    import resource
     out = {}
+    # FreeCAD's own CPU while it only runs its event loop (no run): its share of the cores
+    own, t = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
+    wait_for(lambda: False, 3)
+    own_after, idle_wall = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter() - t
+    idle = (own_after.ru_utime - own.ru_utime + own_after.ru_stime - own.ru_stime) / idle_wall
     for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1)):
         src = open_hull(fname, fname.split("_")[0])
         if src is None:
             out[fname] = {"skipped": "public hulls not present"}
             continue
-        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None}
+        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None, "idle_cpu_share": idle}
         for _ in range(runs):
             seconds, code, last, info = cli_seconds(os.path.join(SHARED, "brep", fname))
             if code != 0:
