@@ -106,6 +106,7 @@ def test_long_run_keeps_the_gui_responsive_and_cancels(gui):
     assert rec["redraws"] >= rec["run_seconds"] and rec["max_gap"] < 1.0, rec
     assert rec["cancel_seconds"] is not None and rec["cancel_seconds"] < 1.0, rec
     assert rec["message"].startswith("Cancelled"), rec["message"]
+    assert rec["message_in_view"] == {"1600x1000": True, "1280x720": True}  # the line is not clipped
     assert rec["created"] == 0 and rec["errors"] == []
     assert rec["proposal"].startswith("automatic: ") and "computing" not in rec["proposal"]  # arrived meanwhile
     assert_not_blank(rec["png_running"])
@@ -129,6 +130,15 @@ def test_gui_time_against_command_line(gui, fname):
     print("\n%s: GUI %.2f s (runs %s), command line %.2f s (runs %s): %.2fx"
           % (fname, gui_s, ", ".join("%.2f" % x for x in rec["seconds"]), cli_s,
              ", ".join("%.2f" % x for x in rec["cli_seconds"]), gui_s / cli_s))
+    for line in rec.get("timelines") or []:
+        print("  GUI timeline (s): %s" % ", ".join("%s %.2f" % kv for kv in sorted((line or {}).items())))
+    if rec.get("idle_cpu_share") is not None:
+        print("  FreeCAD's process idle (event loop only): %.2f CPU s per s" % rec["idle_cpu_share"])
+    for cpu in rec.get("gui_cpu") or []:
+        print("  GUI CPU (s): worker and its face processes %.2f, FreeCAD's process %.2f" % (cpu["worker"], cpu["gui"]))
+    for info in rec.get("cli_info") or []:
+        print("  command line: CPU %.2f s, jobs %s, timings (s) %s" % (
+            info["cpu"], info.get("jobs"), ", ".join("%s %.2f" % kv for kv in sorted((info.get("timings") or {}).items()))))
     assert rec["I_D"] is not None and np.isfinite(rec["I_D"]) and rec["lref"] > 0
 
 
@@ -146,6 +156,12 @@ def test_analyze_brep_through_panel(gui, shots):
     assert rec["panel_shown"] and "automatic" in rec["proposal"] and "principal-axis" in rec["method"]
     assert rec["advanced_enabled"] is True  # BRep: quadrature settings offered
     assert rec["quadrature"] == [6, 2e-4, 4]  # the advanced settings reach the object
+    # the command line's defaults (brep.budget.DEFAULT_QUADRATURE), each setting explained
+    assert rec["quadrature_defaults"] == ["budget", 8000000, 30] and all(rec["quadrature_tips"])
+    # each protocol shows its own settings: the maximum depth only under paper
+    assert rec["protocol_rows"] == {"paper": ["maximum depth"], "budget": ["point budget", "depth limit"]}
+    assert rec["budget_settings"] == ["budget", 2000000, 20]  # recorded on the analysis object
+    assert rec["run_options"] == {"protocol": "budget", "point_budget": 2000000, "depth_limit": 20}  # and run with
     assert rec["no_selection_error"] and "select" in rec["no_selection_error"][0]
     assert rec["status"] == "ok" and rec["representation"] == "brep" and rec["lref"] == 1.0
     assert rec["I_D_status"] in STATUSES

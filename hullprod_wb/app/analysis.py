@@ -18,6 +18,7 @@ import time
 
 from ..core.constants import METRICS
 from ..core.errors import InputError
+from ..brep.budget import DEFAULT_QUADRATURE, PROTOCOLS
 from ..core.progress import Cancelled
 from . import preferences
 from .progress import RunProgress
@@ -29,6 +30,11 @@ STATE_VERSION = 1
 LREF_MODES = ["automatic", "explicit"]
 STATUS_NOT_COMPUTED = "not computed"
 STATUS_OK = "ok"
+
+#: The backend's defaults of the quadrature settings added after the first documents were saved.
+QUADRATURE_DEFAULTS = {"QuadratureProtocol": DEFAULT_QUADRATURE["protocol"],
+                       "QuadraturePointBudget": DEFAULT_QUADRATURE["point_budget"],
+                       "QuadratureDepthLimit": DEFAULT_QUADRATURE["depth_limit"]}
 
 #: (type, name, group, tooltip, output). Output properties are written by execute() only.
 PROPERTIES = [
@@ -46,7 +52,15 @@ PROPERTIES = [
      "dimensionless Gaussian-curvature tolerance k_f (tau_K = k_f/L_ref^2)", False),
     ("App::PropertyInteger", "QuadratureOrder", "Parameters", "BRep: Gauss-Legendre order per direction", False),
     ("App::PropertyPrecision", "QuadratureRtol", "Parameters", "BRep: local relative tolerance of the quadrature", False),
-    ("App::PropertyInteger", "QuadratureMaxDepth", "Parameters", "BRep: maximum refinement depth", False),
+    ("App::PropertyEnumeration", "QuadratureProtocol", "Parameters",
+     "BRep: budget (refinement by the error estimates within the point budget, tolerance on the "
+     "shape's totals) or paper (each face to the maximum depth, rechecked one level deeper)", False),
+    ("App::PropertyInteger", "QuadraturePointBudget", "Parameters",
+     "BRep, budget protocol: field points of the whole assessment, shared by the faces by area", False),
+    ("App::PropertyInteger", "QuadratureDepthLimit", "Parameters",
+     "BRep, budget protocol: levels a cell may be refined below its patch", False),
+    ("App::PropertyInteger", "QuadratureMaxDepth", "Parameters",
+     "BRep: depth of the paper protocol (under budget it bounds only the halving of few patches)", False),
     ("App::PropertyString", "Status", "Results", "ok | not computed | cancelled: ... | error: ...", True),
     ("App::PropertyString", "Representation", "Results", "brep (native surfaces) or mesh (triangles)", True),
     ("App::PropertyString", "Backend", "Results", "realization that computed the signature", True),
@@ -91,6 +105,10 @@ def add_properties(obj):
             obj.setEditorMode(name, 2 if name in HIDDEN else 1)
         if name == "LrefMode":
             obj.LrefMode = LREF_MODES
+        if name in QUADRATURE_DEFAULTS:  # a document saved without it: the value it was run with
+            if name == "QuadratureProtocol":
+                obj.QuadratureProtocol = list(PROTOCOLS)
+            setattr(obj, name, QUADRATURE_DEFAULTS[name])
         if name == "Status":
             obj.Status = STATUS_NOT_COMPUTED
         if ptype == "App::PropertyFloat" and (name in METRICS or output):
@@ -189,7 +207,8 @@ def assessment_options(obj, rep):
           "h_f": float(obj.Hf), "k_f": float(obj.Kf)}
     if rep == "brep":
         kw.update(order=int(obj.QuadratureOrder), rtol=float(obj.QuadratureRtol),
-                  max_depth=int(obj.QuadratureMaxDepth))
+                  max_depth=int(obj.QuadratureMaxDepth), protocol=str(obj.QuadratureProtocol),
+                  point_budget=int(obj.QuadraturePointBudget), depth_limit=int(obj.QuadratureDepthLimit))
     return kw
 
 
@@ -351,13 +370,14 @@ def _check_source(source):
 
 
 def make_analysis(source, faces=None, lref=None, doc=None, h_f=None, k_f=None, order=None, rtol=None,
-                  max_depth=None, label=None, recompute=True, progress=None, skip_planar=False,
+                  max_depth=None, protocol=None, point_budget=None, depth_limit=None, label=None, recompute=True, progress=None, skip_planar=False,
                   assessment=None):
     """Create a HullProdAnalysis of source and compute it (the macro equivalent of Analyze).
 
     source: Part or Mesh document object (never modified); faces: 1-based face numbers of
     a Part (None: all); lref: explicit L_ref in the source's units (None: automatic);
-    h_f, k_f, order, rtol, max_depth: None takes the HullProd preferences. progress:
+    h_f, k_f, order, rtol, max_depth, protocol, point_budget, depth_limit: None takes the
+    HullProd preferences (brep.budget.DEFAULT_QUADRATURE). progress:
     optional callable(fraction, message); skip_planar: leave out planar faces;
     assessment: (Assessment, seconds) already computed for exactly these settings (an
     assessment process of the GUI), stored instead of a run. When the run fails or is
@@ -385,6 +405,13 @@ def make_analysis(source, faces=None, lref=None, doc=None, h_f=None, k_f=None, o
     obj.QuadratureOrder = int(defaults["order"] if order is None else order)
     obj.QuadratureRtol = float(defaults["rtol"] if rtol is None else rtol)
     obj.QuadratureMaxDepth = int(defaults["max_depth"] if max_depth is None else max_depth)
+    protocol = defaults["protocol"] if protocol is None else protocol
+    if protocol not in PROTOCOLS:
+        doc.removeObject(obj.Name)
+        raise InputError("protocol must be one of %s, got %r" % (", ".join(PROTOCOLS), protocol))
+    obj.QuadratureProtocol = protocol
+    obj.QuadraturePointBudget = int(defaults["point_budget"] if point_budget is None else point_budget)
+    obj.QuadratureDepthLimit = int(defaults["depth_limit"] if depth_limit is None else depth_limit)
     attach_view_provider(obj)
     obj.Proxy.pending = assessment
     if recompute or assessment is not None:

@@ -171,6 +171,7 @@ class AssessmentProcess:
                 self.state = "loaded"
         elif kind == "done":
             self.state, self.seconds = "done", ev.get("seconds")
+            self.done_event = ev
             self.done_at = time.perf_counter()
         elif kind == "error" and self.state == "loading":
             self.load_error = ev.get("message")

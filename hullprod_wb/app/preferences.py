@@ -3,6 +3,7 @@
 The Preferences page (hullprod_wb.gui.preferences) edits the same group:
 ``User parameter:BaseApp/Preferences/Mod/HullProd``.
 """
+from ..brep.budget import DEFAULT_QUADRATURE
 from ..core.constants import DEFAULT_HF, DEFAULT_KF
 
 PARAM_PATH = "User parameter:BaseApp/Preferences/Mod/HullProd"
@@ -20,6 +21,9 @@ DEFAULTS = {
     "QuadratureOrder": ("Int", DEFAULT_ORDER),
     "QuadratureRtol": ("Float", DEFAULT_RTOL),
     "QuadratureMaxDepth": ("Int", DEFAULT_MAX_DEPTH),
+    "QuadratureProtocol": ("String", DEFAULT_QUADRATURE["protocol"]),
+    "QuadraturePointBudget": ("Int", DEFAULT_QUADRATURE["point_budget"]),
+    "QuadratureDepthLimit": ("Int", DEFAULT_QUADRATURE["depth_limit"]),
     "DefaultColorMap": ("String", "Developability"),
     "HideSourceOnAnalyze": ("Bool", True),
 }
@@ -43,9 +47,12 @@ def set(name, value):  # noqa: A001 - mirrors FreeCAD's Set*/Get* naming
 
 
 def analysis_defaults():
-    """The keyword defaults of make_analysis: h_f, k_f, order, rtol, max_depth."""
+    """The keyword defaults of make_analysis: h_f, k_f, order, rtol, max_depth, protocol,
+    point_budget, depth_limit."""
     return {"h_f": get("DefaultHf"), "k_f": get("DefaultKf"), "order": get("QuadratureOrder"),
-            "rtol": get("QuadratureRtol"), "max_depth": get("QuadratureMaxDepth")}
+            "rtol": get("QuadratureRtol"), "max_depth": get("QuadratureMaxDepth"),
+            "protocol": get("QuadratureProtocol"), "point_budget": get("QuadraturePointBudget"),
+            "depth_limit": get("QuadratureDepthLimit")}
 
 
 def reset():

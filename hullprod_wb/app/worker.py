@@ -13,7 +13,8 @@ Requests:
       api.assess of the loaded input with these keyword arguments, exactly as
       `./hullprod analyze` runs it (faces in parallel processes); events
       {"event": "progress", "fraction": f, "message": m}, then {"event": "done"} with the
-      pickled Assessment written to path, or {"event": "error", "kind": "input" | "internal",
+      pickled Assessment written to path (with the run's seconds, its face processes
+      "jobs", the process's threads when it started, and the assessment's timings), or {"event": "error", "kind": "input" | "internal",
       "message": ...}. The process then exits.
 
 Nothing here imports FreeCADGui or Qt; FreeCAD itself is only loaded in a forked child
@@ -136,12 +137,15 @@ def main():
                 if loaded is None:
                     raise InputError("nothing was loaded to assess")
                 options = dict(req.get("options") or {}, progress=Progress())
+                from ..brep.face_pool import thread_count
+                threads = thread_count()
                 t = time.perf_counter()
                 result = assess(*loaded, options)
                 seconds = time.perf_counter() - t
                 with open(req["result"], "wb") as fh:
                     pickle.dump(result, fh, pickle.HIGHEST_PROTOCOL)
-                emit("done", seconds=seconds)
+                emit("done", seconds=seconds, jobs=(result.options or {}).get("jobs"),
+                     threads_at_start=threads, timings=dict(result.timings or {}))
                 return 0
         except InputError as exc:
             emit("error", kind="input", message=" ".join(str(exc).split()))

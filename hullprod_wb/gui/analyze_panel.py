@@ -12,6 +12,7 @@ from ..app import preferences
 from ..app.analysis import make_analysis, record_planar
 from ..app.assessment_process import AssessmentProcess, WorkerFailed
 from ..app.planar import planar_faces
+from ..brep.budget import FACE_POINT_FLOOR, PROTOCOLS
 from ..core.errors import InputError
 from . import dialogs
 from .qt import QtCore, QtGui, QtWidgets
@@ -75,6 +76,15 @@ class AnalyzePanel:
                                        % ", ".join(ignored))
         self.ignored_label.setVisible(bool(ignored))
         lay.addWidget(self.ignored_label)
+        # the run's state near OK and Cancel, where it stays in view however tall the
+        # settings below grow (the task view scrolls)
+        self.bar = QtWidgets.QProgressBar()
+        self.bar.setRange(0, 1000)
+        self.bar.setValue(0)
+        self.message = QtWidgets.QLabel("Press OK to run; Cancel (or Esc) stops a running analysis.")
+        self.message.setWordWrap(True)
+        lay.addWidget(self.bar)
+        lay.addWidget(self.message)
 
         box = QtWidgets.QGroupBox("Reference length L_ref")
         g = QtWidgets.QGridLayout(box)
@@ -136,12 +146,38 @@ class AnalyzePanel:
         self.order_spin.setRange(1, 30)
         self.order_spin.setValue(int(d["order"]))
         self.rtol_edit = _float_edit(d["rtol"], "local relative tolerance of the adaptive quadrature")
+        self.protocol_combo = QtWidgets.QComboBox()
+        self.protocol_combo.addItems(list(PROTOCOLS))
+        self.protocol_combo.setCurrentIndex(max(0, self.protocol_combo.findText(str(d["protocol"]))))
+        self.protocol_combo.setToolTip(
+            "budget: cells refined where the error estimates are largest, within the point budget, "
+            "until the shape's totals meet the tolerance\npaper: every face refined to the maximum "
+            "depth on its own and rechecked one level deeper (the paper's campaign)")
+        self.budget_spin = QtWidgets.QSpinBox()
+        self.budget_spin.setRange(FACE_POINT_FLOOR, 2 ** 31 - 1)
+        self.budget_spin.setSingleStep(1_000_000)
+        self.budget_spin.setGroupSeparatorShown(True)
+        self.budget_spin.setValue(int(d["point_budget"]))
+        self.budget_spin.setToolTip("field points of the whole assessment, shared by the faces by area "
+                                    "(each face at least %d)" % FACE_POINT_FLOOR)
+        self.depth_limit_spin = QtWidgets.QSpinBox()
+        self.depth_limit_spin.setRange(1, 60)
+        self.depth_limit_spin.setValue(int(d["depth_limit"]))
+        self.depth_limit_spin.setToolTip("levels a cell may be refined below its surface patch")
         self.depth_spin = QtWidgets.QSpinBox()
         self.depth_spin.setRange(0, 20)
         self.depth_spin.setValue(int(d["max_depth"]))
+        self.depth_spin.setToolTip("depth every face is refined to (rechecked one level deeper)")
+        self.order_spin.setToolTip("Gauss-Legendre points per direction of a cell")
         f.addRow("Gauss-Legendre order", self.order_spin)
         f.addRow("relative tolerance", self.rtol_edit)
+        f.addRow("protocol", self.protocol_combo)
+        f.addRow("point budget", self.budget_spin)
+        f.addRow("depth limit", self.depth_limit_spin)
         f.addRow("maximum depth", self.depth_spin)
+        self.quadrature_form = f
+        self.protocol_combo.currentIndexChanged.connect(self._show_protocol_rows)
+        self._show_protocol_rows()
         v = QtWidgets.QVBoxLayout(self.advanced)
         v.addWidget(inner)
         inner.setVisible(False)
@@ -151,13 +187,6 @@ class AnalyzePanel:
             self.advanced.setToolTip("meshes are assessed by discrete curvature; no quadrature")
         lay.addWidget(self.advanced)
 
-        self.bar = QtWidgets.QProgressBar()
-        self.bar.setRange(0, 1000)
-        self.bar.setValue(0)
-        self.message = QtWidgets.QLabel("Press OK to run; Cancel (or Esc) stops a running analysis.")
-        self.message.setWordWrap(True)
-        lay.addWidget(self.bar)
-        lay.addWidget(self.message)
         lay.addStretch(1)
         self.timer = QtCore.QTimer(self.form)
         self.timer.setInterval(POLL_MS)
@@ -243,6 +272,17 @@ class AnalyzePanel:
         if text != self.message.text():
             self.message.setText(text)
 
+    def _show_protocol_rows(self, *_):
+        """The settings of the chosen protocol only: point budget and depth limit under
+        budget, the maximum depth under paper."""
+        paper = self.protocol_combo.currentText() == "paper"
+        for widget, shown in ((self.budget_spin, not paper), (self.depth_limit_spin, not paper),
+                              (self.depth_spin, paper)):
+            widget.setVisible(shown)
+            label = self.quadrature_form.labelForField(widget)
+            if label is not None:
+                label.setVisible(shown)
+
     # -- values -------------------------------------------------------------------------------
     def values(self):
         """Keyword arguments of make_analysis from the widgets (InputError on bad text)."""
@@ -257,14 +297,15 @@ class AnalyzePanel:
         out = {"h_f": num(self.hf_edit, "h_f"), "k_f": num(self.kf_edit, "k_f"),
                "lref": num(self.lref_edit, "L_ref") if self.explicit_radio.isChecked() else None}
         out.update(order=self.order_spin.value(), rtol=num(self.rtol_edit, "relative tolerance"),
-                   max_depth=self.depth_spin.value())
+                   max_depth=self.depth_spin.value(), protocol=self.protocol_combo.currentText(),
+                   point_budget=self.budget_spin.value(), depth_limit=self.depth_limit_spin.value())
         return out
 
     @staticmethod
     def _options(kw, obj):
         opts = {"lref": kw["lref"], "h_f": kw["h_f"], "k_f": kw["k_f"]}
         if hasattr(obj, "Shape"):
-            opts.update(order=kw["order"], rtol=kw["rtol"], max_depth=kw["max_depth"])
+            opts.update({k: kw[k] for k in ("order", "rtol", "max_depth", "protocol", "point_budget", "depth_limit")})
         return opts
 
     # -- run --------------------------------------------------------------------------------------
@@ -327,8 +368,15 @@ class AnalyzePanel:
         started = getattr(proc, "started_at", self.t_start)
         self.timeline = {"process_seconds": proc.seconds, "noticed_after": time.perf_counter() - started,
                          "done_after": getattr(proc, "done_at", float("nan")) - started}
+        done = getattr(proc, "done_event", None) or {}
+        for key in ("jobs", "threads_at_start"):
+            if done.get(key) is not None:
+                self.timeline["worker_" + key] = done[key]
+        for key, value in (done.get("timings") or {}).items():
+            self.timeline["worker_" + key] = value
         try:
             a = proc.result()
+            self.timeline["result_loaded_after"] = time.perf_counter() - started
             record_planar(a, self.planar[i] if self.skip_planar else [])
             made = make_analysis(obj, faces=faces, skip_planar=self.skip_planar and bool(self.planar[i]),
                                  assessment=(a, proc.seconds or 0.0), **self.kw)
@@ -341,6 +389,7 @@ class AnalyzePanel:
             self.errors.append(str(exc))
             dialogs.error("analysis of %s failed" % obj.Label, " ".join(str(exc).split()))
         else:
+            self.timeline["analysis_made_after"] = time.perf_counter() - started
             self.made.append(made)
             if preferences.get("HideSourceOnAnalyze") and getattr(obj, "ViewObject", None) is not None:
                 obj.ViewObject.Visibility = False

@@ -104,6 +104,23 @@ def shot(name, w=1000, h=620):
     return path
 
 
+def widget_in_view(widget):
+    """True when widget is shown whole: inside the viewport of every scroll area it sits in
+    (the task view scrolls) and inside the main window."""
+    if not widget.isVisible():
+        return False
+    rect = QtCore.QRect(widget.mapToGlobal(QtCore.QPoint(0, 0)), widget.size())
+    parent = widget.parentWidget()
+    while parent is not None:
+        if isinstance(parent, QtWidgets.QAbstractScrollArea):
+            vp = parent.viewport()
+            if not QtCore.QRect(vp.mapToGlobal(QtCore.QPoint(0, 0)), vp.size()).contains(rect):
+                return False
+        parent = parent.parentWidget()
+    mw = FreeCADGui.getMainWindow()
+    return QtCore.QRect(mw.mapToGlobal(QtCore.QPoint(0, 0)), mw.size()).contains(rect)
+
+
 def window_shot(name):
     """The whole main window with the 3D view pasted in (GL contents do not grab)."""
     FreeCADGui.Selection.clearSelection()
@@ -146,12 +163,24 @@ def screen_shot(name):
 
 
 def quick_quadrature(p):
-    """BRep quadrature through the panel's advanced settings (order 6, rtol 2e-4, depth 4:
-    not the defaults, so the test sees them reach the analysis object)."""
+    """BRep quadrature through the panel's advanced settings (order 6, rtol 2e-4, budget
+    protocol with 2e6 points and depth limit 20, maximum depth 4: not the defaults, so the
+    test sees them reach the analysis object). Returns which rows the panel showed under
+    each protocol."""
     p.advanced.setChecked(True)
+    process(20)
     p.order_spin.setValue(6)
     p.rtol_edit.setText("0.0002")
+    rows = {}
+    for protocol in ("paper", "budget"):
+        p.protocol_combo.setCurrentIndex(p.protocol_combo.findText(protocol))
+        process(20)
+        rows[protocol] = [name for name, w in (("point budget", p.budget_spin), ("depth limit", p.depth_limit_spin),
+                                               ("maximum depth", p.depth_spin)) if w.isVisible()]
+    p.budget_spin.setValue(2000000)
+    p.depth_limit_spin.setValue(20)
     p.depth_spin.setValue(4)
+    return rows
 
 
 def colour_check(a):
@@ -215,10 +244,13 @@ def _():
     shown = FreeCADGui.Control.activeDialog()
     p.explicit_radio.setChecked(True)
     p.lref_edit.setText("1.0")
-    quick_quadrature(p)
+    defaults = [p.protocol_combo.currentText(), p.budget_spin.value(), p.depth_limit_spin.value()]
+    tips = [bool(w.toolTip()) for w in (p.protocol_combo, p.budget_spin, p.depth_limit_spin, p.depth_spin)]
+    rows = quick_quadrature(p)
     window_shot("analyze_panel")
     texts = {"proposal": p.auto_radio.text(), "method": p.method_label.text(),
-             "advanced_enabled": p.advanced.isEnabled()}
+             "advanced_enabled": p.advanced.isEnabled(), "protocol_rows": rows, "quadrature_defaults": defaults,
+             "quadrature_tips": tips}
     made = p.run()
     selected_after = [o.Name for o in FreeCADGui.Selection.getSelection()]
     FreeCADGui.Control.closeDialog()
@@ -229,6 +261,8 @@ def _():
     texts["precision_types"] = [a.getTypeIdOfProperty(n) for n in ("Hf", "Kf", "QuadratureRtol")]
     return {"panel_shown": bool(shown), "no_selection_error": [m[2] for m in no_sel], **texts,
             "quadrature": [a.QuadratureOrder, a.QuadratureRtol, a.QuadratureMaxDepth],
+            "budget_settings": [a.QuadratureProtocol, a.QuadraturePointBudget, a.QuadratureDepthLimit],
+            "run_options": {k: json.loads(a.ResultJSON)["options"].get(k) for k in ("protocol", "point_budget", "depth_limit")},
             "status": a.Status, "representation": a.Representation, "lref": a.LrefUsed,
             "I_D": a.I_D, "I_D_status": a.I_D_Status, "source_visible": src.ViewObject.Visibility}
 
@@ -668,6 +702,15 @@ def _():
     gaps = [b - a for a, b in zip([t0] + times, times + [t1]) if a >= t0 and b <= t1 + 1e-9]
     shot_cancel = window_shot("analyze_cancelled")
     msg = p.message.text()
+    message_in_view = {}
+    mw = FreeCADGui.getMainWindow()
+    for w, h in ((1600, 1000), (1280, 720)):
+        mw.showNormal()
+        mw.resize(w, h)
+        process(300)
+        message_in_view["%dx%d" % (w, h)] = widget_in_view(p.message)
+    mw.resize(1500, 950)
+    process(100)
     FreeCADGui.Control.closeDialog()
     made = [o for o in src.Document.Objects if getattr(o, "Source", None) == src]
     FreeCAD.closeDocument(src.Document.Name)
@@ -675,17 +718,30 @@ def _():
             "max_gap": max(gaps) if gaps else None, "progress_text": progress_text,
             "cancel_seconds": gone, "message": msg, "created": len(made), "proposal": proposal_while_running,
             "errors": [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:],
-            "png_running": shot_running, "png_cancelled": shot_cancel}
+            "png_running": shot_running, "png_cancelled": shot_cancel, "message_in_view": message_in_view}
 
 
 def cli_seconds(path):
-    """Wall time of `./hullprod analyze path` of this checkout, and its exit code."""
+    """Wall time of `./hullprod analyze --json path` of this checkout, its exit code, its
+    last stderr line, and (user+system CPU seconds of it and its face processes, its face
+    processes' count "jobs" and per-phase "timings" from the JSON)."""
+    import resource
     root = os.path.dirname(RESULT["package"])
     env = dict(os.environ)
     env.pop("PYTHONHOME", None)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    r = subprocess.run([os.path.join(root, "hullprod"), "analyze", path], env=env, capture_output=True, text=True)
-    return time.perf_counter() - t, r.returncode, (r.stderr.strip().splitlines() or [""])[-1]
+    r = subprocess.run([os.path.join(root, "hullprod"), "analyze", "--json", "--quiet", path], env=env,
+                       capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    info = {"cpu": after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime}
+    try:
+        doc = json.loads(r.stdout)
+        info.update(jobs=doc["options"].get("jobs"), timings=doc.get("timings"))
+    except (ValueError, KeyError, TypeError):
+        pass
+    return wall, r.returncode, (r.stderr.strip().splitlines() or [""])[-1], info
 
 
 @step("gui_vs_cli")
@@ -694,18 +750,25 @@ def _():
     `./hullprod analyze` on shared hulls, all faces, default settings; the two alternate
     (a command-line run before each GUI run) so that both see the same machine."""
     from hullprod_wb.gui import analyze_panel, dialogs
+    import resource
     out = {}
+    # FreeCAD's own CPU while it only runs its event loop (no run): its share of the cores
+    own, t = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter()
+    wait_for(lambda: False, 3)
+    own_after, idle_wall = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter() - t
+    idle = (own_after.ru_utime - own.ru_utime + own_after.ru_stime - own.ru_stime) / idle_wall
     for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1)):
         src = open_hull(fname, fname.split("_")[0])
         if src is None:
             out[fname] = {"skipped": "public hulls not present"}
             continue
-        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None}
+        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None, "idle_cpu_share": idle}
         for _ in range(runs):
-            seconds, code, last = cli_seconds(os.path.join(SHARED, "brep", fname))
+            seconds, code, last, info = cli_seconds(os.path.join(SHARED, "brep", fname))
             if code != 0:
                 rec["cli_error"] = "exit %d: %s" % (code, last)
             rec["cli_seconds"].append(seconds)
+            rec.setdefault("cli_info", []).append(info)
             n_err = len([m for m in dialogs.LOG if m[0] == "error"])
             FreeCADGui.Selection.clearSelection()
             FreeCADGui.Selection.addSelection(src)
@@ -713,7 +776,15 @@ def _():
             p = analyze_panel.LAST_PANEL
             wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)  # the user reads the panel
             rec["proposal"] = p.auto_radio.text()
+            import resource
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            own = resource.getrusage(resource.RUSAGE_SELF)
             made = p.run()
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            own_after = resource.getrusage(resource.RUSAGE_SELF)
+            rec.setdefault("gui_cpu", []).append(
+                {"worker": after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime,
+                 "gui": own_after.ru_utime - own.ru_utime + own_after.ru_stime - own.ru_stime})
             errs = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
             FreeCADGui.Control.closeDialog()
             if errs or not made:
