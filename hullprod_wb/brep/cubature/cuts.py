@@ -64,7 +64,7 @@ class CutSearch:
         if p.size == 0:
             return p, np.empty(0)
         cells = self._pc_cells
-        cell = pc["cell"][p]
+        cell = pc.cell[p]
         t0, t1 = cells["t0"][cell], cells["t1"][cell]
         gap = tb - ta
         w0 = np.maximum(ta - gap, t0)
@@ -112,7 +112,7 @@ class CutSearch:
         if not ok.any():
             return p[:0], np.empty(0)
         i = np.nonzero(ok)[0]
-        w = (pc["sb"] - pc["sa"])[p[i]]
+        w = (pc.sb - pc.sa)[p[i]]
         # on an interpolant: Newton on g = dg/dt = 0 from the closer pair's midpoint; the
         # bracketed search on phi where that fails, and on the field
         root = np.full(i.size, np.nan)
@@ -142,7 +142,7 @@ class CutSearch:
         between the lines where psi interpolates to zero, and kept when it lies between
         them. Corners Newton does not find, and corners on lines of the field, give no cut."""
         cells = self._pc_cells
-        cell = pc["cell"]
+        cell = pc.cell
         deg = series.shape[-1] - 1
         # pieces on an interpolant, K levels (0, 1) crossed as often (once or twice) on all
         # of their lines, and whether a second crossing is there
@@ -174,7 +174,7 @@ class CutSearch:
         c = cell[p]
         root = level_intersections(self._interp["C"], cells, c, LEVEL_ROW[qh], self.level_offset[qh],
                                    LEVEL_ROW[qk], self.level_offset[qk], sa, sb, cells["t0"][c], cells["t1"][c],
-                                   s_start, t_start, TANGENT_RTOL * (pc["sb"] - pc["sa"])[p])
+                                   s_start, t_start, TANGENT_RTOL * (pc.sb - pc.sa)[p])
         inside = _inside_pieces(pc, p, root)
         return p[inside], root[inside]
 
@@ -191,7 +191,7 @@ class CutSearch:
         cells = self._pc_cells
         use = self._interp["use"]
         nc = use.size
-        area = _row_sums(pc["cell"], F[:, 3:], nc)  # flat, single, elliptic, saddle
+        area = _row_sums(pc.cell, F[:, 3:], nc)  # flat, single, elliptic, saddle
         ell, sad, band = area[:, 2] > 0.0, area[:, 3] > 0.0, area[:, 0] + area[:, 1] > 0.0
         tk = self.tau_K
         c = np.nonzero(use & ~(ell & sad & band))[0]
@@ -216,6 +216,6 @@ class CutSearch:
             return np.empty(0, int), np.empty(0)
         at = cells["s0"][cell] + 0.5 * (x + 1.0) * (cells["s1"][cell] - cells["s0"][cell])
         # the piece of each cell that holds the point, away from its ends
-        i, p = np.nonzero(pc["cell"][None, :] == cell[:, None])
+        i, p = np.nonzero(pc.cell[None, :] == cell[:, None])
         inside = _inside_pieces(pc, p, at[i])
         return p[inside], at[i][inside]

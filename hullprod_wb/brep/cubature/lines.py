@@ -44,8 +44,8 @@ from ..cell_interpolant import SegmentField, cell_values, fit_interpolants
 from ..gauss_rules import WK, XK, kronrod_error, legendre_vander
 from ..patches import cluster_map
 from ..trimmed_domain import solve_bracketed
-from .cells import _cat, _greedy_accept, _row_sums
-from .pieces import _count_and_pairs, _halve_pieces, _parabolic_min, _segments, _split_pieces
+from .cells import _greedy_accept, _row_sums
+from .pieces import Pieces, _count_and_pairs, _halve_pieces, _parabolic_min, _segments, _split_pieces
 from .settings import (CROSSING_RTOL, CROSSING_STEPS, DIP_FRACTION, INTERPOLANT_SHARE, LEVEL_ROW, MAX_PIECES,
                        M_HI, M_LO, N_LEVELS, N_LINE_Q, N_SMOOTH, SHORT_PIECE, SLIVER, STALL_RATIO, XI3, XI9,
                        ZERO_BOUND_SAFETY, ZERO_CHARGE_PARTS, ZS)
@@ -368,7 +368,7 @@ class LineIntegration:
         return out
 
     def _piece_values(self, pc, counted=True):
-        """Gauss-Kronrod 3/7 in sigma over pieces pc (dict of (n,) cell, sa, sb, kind) of the
+        """Gauss-Kronrod 3/7 in sigma over the Pieces pc of the
         mixed cells _pc_cells; nodes cluster_map(kind) of XI9: the Kronrod nodes, and (with
         counted) lines next to both ends whose crossings are only counted, to detect
         tangencies there (in the same _line_values call).
@@ -384,22 +384,22 @@ class LineIntegration:
         and the power series in t of the lines on interpolants (SegmentField.power)
         (n, 9, 3, d + 1) (without counted, those of the end lines are 0, NaN, NaN and 0)."""
         cells = self._pc_cells
-        n, m = pc["sa"].size, XI9.size
-        cw = (cells["s1"] - cells["s0"])[pc["cell"]]
-        sliver = ((pc["sb"] - pc["sa"]) < SLIVER * cw) & (pc["kind"] == 0)
+        n, m = pc.size, XI9.size
+        cw = (cells["s1"] - cells["s0"])[pc.cell]
+        sliver = ((pc.sb - pc.sa) < SLIVER * cw) & (pc.kind == 0)
         nk = np.nonzero(~sliver)[0]
         ns = np.nonzero(sliver)[0]
-        c, dc = cluster_map(np.repeat(pc["kind"][nk, None], m, 1), np.broadcast_to(XI9, (nk.size, m)))
-        w = (pc["sb"] - pc["sa"])[:, None]
-        sig = np.repeat(pc["sa"][:, None], m, 1) + w * XI9[None, :]
-        sig[nk] = pc["sa"][nk, None] + w[nk] * c
+        c, dc = cluster_map(np.repeat(pc.kind[nk, None], m, 1), np.broadcast_to(XI9, (nk.size, m)))
+        w = (pc.sb - pc.sa)[:, None]
+        sig = np.repeat(pc.sa[:, None], m, 1) + w * XI9[None, :]
+        sig[nk] = pc.sa[nk, None] + w[nk] * c
         # lines: the Kronrod nodes of the pieces, then the three nodes of the slivers, then
         # (counted only) the two end lines of the pieces
-        sl = pc["sa"][ns, None] + w[ns] * XI3[None, :]
+        sl = pc.sa[ns, None] + w[ns] * XI3[None, :]
         ends = sig[nk][:, [0, -1]].ravel() if counted else np.empty(0)
-        ecell = np.repeat(pc["cell"][nk], 2) if counted else np.empty(0, int)
+        ecell = np.repeat(pc.cell[nk], 2) if counted else np.empty(0, int)
         lsig = np.concatenate((sig[nk, 1:-1].ravel(), sl.ravel(), ends))
-        lcell = np.concatenate((np.repeat(pc["cell"][nk], m - 2), np.repeat(pc["cell"][ns], XI3.size), ecell))
+        lcell = np.concatenate((np.repeat(pc.cell[nk], m - 2), np.repeat(pc.cell[ns], XI3.size), ecell))
         lpid = cells["pid"][lcell]
         nv = lsig.size - ends.size
         _, ldu = self.patches.u_of_sigma(lpid[:nv], lsig[:nv])
@@ -508,9 +508,7 @@ class LineIntegration:
         ar = np.arange(nc)
         cell, sa, sb = _segments(np.concatenate((cells["s0"], es, cells["s1"])),
                                  np.concatenate((ar, ec, ar)))
-        n = cell.size
-        pc = dict(cell=cell, sa=sa, sb=sb, kind=np.zeros(n, int), perr=np.full(n, np.inf),
-                  sib=np.full(n, -1))
+        pc = Pieces.whole(cell, sa, sb)
         left = budget - interpolants["err"]
         for level in range(self.class_max_depth + 1):
             last = level == self.class_max_depth
@@ -525,18 +523,18 @@ class LineIntegration:
                 if level == 0:  # and islands of a class that no line of a cell meets
                     ip, is_ = self._island_cuts(pc, F)
                     tp, ts = np.concatenate((tp, ip)), np.concatenate((ts, is_))
-            cut = np.zeros(pc["sa"].size, bool)
+            cut = np.zeros(pc.size, bool)
             cut[tp] = True
-            c = pc["cell"]
+            c = pc.cell
             err = e_s + e_t
             with np.errstate(divide="ignore", invalid="ignore"):
                 enorm = np.nan_to_num(err / budget[c], nan=0.0).max(1)
             # halves whose errors together did not fall below STALL_RATIO of their parent's
-            sib = pc["sib"]
+            sib = pc.sib
             halves = sib >= 0
             pair_sum = np.bincount(sib[halves], weights=enorm[halves], minlength=cut.size)
             stalled = np.zeros(nc, bool)
-            stalled[c[halves & (pair_sum[np.maximum(sib, 0)] > STALL_RATIO * pc["perr"])]] = True
+            stalled[c[halves & (pair_sum[np.maximum(sib, 0)] > STALL_RATIO * pc.perr)]] = True
             total = budget - left
             total += _row_sums(c, err, nc)
             fits = np.all(total <= budget, 1) & (np.bincount(c[cut], minlength=nc) == 0)
@@ -548,8 +546,8 @@ class LineIntegration:
             charged += np.bincount(c[done], weights=e_c[done], minlength=nc)
             left -= _row_sums(c[done], err[done], nc)
             halve = ~done & ~cut
-            pc = _cat([_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm)])
-            if pc["sa"].size == 0:
+            pc = Pieces.concatenate([_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm)])
+            if pc.size == 0:
                 break
         errs += interpolants["err"]
         return out, errs, np.all(errs <= budget, 1), charged
