@@ -1,6 +1,7 @@
 """Trimmed parameter domains and the adaptive boundary-fitted cubature
 (eq:brep_surface_integral): analytic fields without FreeCAD, then faces made with Part and
 the public hulls with a slow per-point OpenCascade field."""
+import dataclasses
 import math
 
 import numpy as np
@@ -302,8 +303,8 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
     island_cuts = cubature.driver._Integrator._island_cuts
     cuts = []
 
-    def record(self, pc, F):
-        out = island_cuts(self, pc, F)
+    def record(self, mc, pc, F):
+        out = island_cuts(self, mc, pc, F)
         cuts.append(out[0].size)
         return out
 
@@ -685,12 +686,12 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
 
     def record_turn(self, cells, interp):
         out = turn(self, cells, interp)
-        turned.append(int(np.isfinite(out[0]["width"]).sum()))
+        turned.append(int(np.isfinite(out.width).sum()))
         return out
 
-    def record_lines(self, cell, pid, sig, t0, t1, n_counted=0):
+    def record_lines(self, mc, cell, pid, sig, t0, t1, n_counted=0):
         lines.append(pid.size - n_counted)  # the lines integrated
-        return values(self, cell, pid, sig, t0, t1, n_counted)
+        return values(self, mc, cell, pid, sig, t0, t1, n_counted)
 
     monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", record_turn)
     monkeypatch.setattr(cubature.driver._Integrator, "_line_values", record_lines)
@@ -710,8 +711,8 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
     turned.clear()
     lines.clear()
     # no cell turned: the candidates' interpolants hidden from _turn_cells
-    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", lambda self, cells, interp: (
-        turn(self, cells, {**interp, "use": np.zeros_like(interp["use"])})[0], interp))
+    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", lambda self, cells, interp: dataclasses.replace(
+        turn(self, cells, dataclasses.replace(interp, use=np.zeros_like(interp.use))), interp=interp))
     s = integrate(d, f, TAU_H, TAU_K)
     assert sum(turned) == 0 and s.all_converged
     for q, exact in (("A_elliptic", ell), ("A_saddle", sad), ("A_single", 1.125 - ell - sad)):

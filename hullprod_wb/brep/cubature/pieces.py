@@ -1,5 +1,5 @@
 """Pieces of the lines of mixed cells, shared by the line integration and the cut search:
-segments of a line between cuts, crossing counts and pairs of a level, pieces split at or
+the mixed cells with their interpolants, segments of a line between cuts, crossing counts and pairs of a level, pieces split at or
 halved between parameters, and a parabolic search for the extremum of a level function
 between samples."""
 from dataclasses import dataclass
@@ -7,6 +7,47 @@ from dataclasses import dataclass
 import numpy as np
 
 from .settings import EDGE_XI, N_LEVELS, PARABOLIC_STEPS
+
+
+@dataclass(frozen=True)
+class Interpolants:
+    """Tensor interpolants of J, K, H over mixed cells (cell_interpolant), all (m, ...) arrays."""
+
+    #: Legendre coefficients (m, 3, 2o, 2o) of J, K, H in the cell's local (sigma, t)
+    C: np.ndarray
+    #: (m,) bool: the cell's lines run on its interpolant (else on the field)
+    use: np.ndarray
+    #: (m, 7) the interpolant's error in each LINE_Q integral (0 where not used)
+    err: np.ndarray
+
+    def take(self, keep):
+        """The interpolants of the cells keep (a mask or indices)."""
+        return Interpolants(self.C[keep], self.use[keep], self.err[keep])
+
+
+@dataclass(frozen=True)
+class MixedCells:
+    """The mixed cells whose lines are integrated, lines along t (turned cells: sigma and t
+    exchanged, see LineIntegration._turn_cells), with their interpolants."""
+
+    #: dict of (n,) pid, s0, s1, t0, t1: the cells' patches and boxes in (sigma, t)
+    boxes: dict
+    #: (n,) the constant strip width hi - lo of turned cells (NaN: not turned)
+    width: np.ndarray
+    #: (n,) the constant du/dsigma of turned cells (NaN: not turned)
+    du: np.ndarray
+    #: the cells' interpolants (turned with their cells)
+    interp: Interpolants
+
+    @property
+    def size(self):
+        return self.width.size
+
+    def turned(self, cell, values, key):
+        """values (m,) (line widths hi - lo for key "width", du/dsigma for "du") of lines in
+        the cells cell (m,), with the constants of turned cells put in."""
+        const = getattr(self, key)[cell]
+        return np.where(np.isnan(const), values, const)
 
 
 @dataclass(frozen=True)
