@@ -1,6 +1,7 @@
 """Trimmed parameter domains and the adaptive boundary-fitted cubature
 (eq:brep_surface_integral): analytic fields without FreeCAD, then faces made with Part and
 the public hulls with a slow per-point OpenCascade field."""
+import dataclasses
 import math
 
 import numpy as np
@@ -218,21 +219,41 @@ def _flat_corner_reference(g, vH, tau_H, tau_K, J_inner):
     band = quad(lambda u: J_inner(u, g(u) - tau_K, g(u) + tau_K), 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
     above = quad(lambda u: J_inner(u, g(u) + tau_K, 1.0), 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
     below = quad(lambda u: J_inner(u, 0.0, g(u) - tau_K), 0, 1, epsabs=1e-15, epsrel=1e-13)[0]
-    return {"A_flat": A_flat, "A_single": band - A_flat, "A_elliptic": above, "A_saddle": below}, len(pts)
+    return {"A_flat": A_flat, "A_single": band - A_flat, "A_elliptic": above, "A_saddle": below}, pts
+
+
+def _one_mixed_cell(f, tau_H, tau_K, box=(0.0, 1.0, 0.0, 1.0), budget=np.inf):
+    """The integrator's units for one mixed cell of the unit square's patch, sigma = u and
+    t = v in [s0, s1] x [t0, t1] = box: the integrator, the cell's MixedCells (on its
+    interpolant from its four children's samples when within budget, turned where that
+    suits the level curves) and its first Pieces (the cell cut at the edge crossings)."""
+    from hullprod_wb.brep.cubature.cells import _children
+    from hullprod_wb.brep.cubature.driver import _Integrator
+    from hullprod_wb.brep.cubature.pieces import Pieces, _segments
+    it = _Integrator(TrimmedDomain.rectangle(0, 1, 0, 1), f, tau_H, tau_K, 5, 1e-4, 2, (), (), None)
+    cell = {k: np.array([x]) for k, x in zip(("s0", "s1", "t0", "t1"), box)}
+    cell["pid"] = np.array([0])
+    cell.update(it._eval_cells(cell))
+    ch = _children(cell)
+    ch.update(it._eval_cells(ch))
+    interp = it._interpolants(cell, ch, np.ones(1, bool), cell, np.full((1, 7), budget))
+    mc = it._turn_cells(cell, interp)
+    ec, es = it._edge_cuts(mc)
+    pc = Pieces.whole(*_segments(np.concatenate((mc.boxes["s0"], es, mc.boxes["s1"])),
+                                 np.concatenate(([0], ec, [0]))))
+    return it, mc, pc
 
 
 @pytest.mark.parametrize("curved", [False, True])
-def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
+def test_flat_region_corners_cut_the_lines(curved):
     """Where a level of H (H = +-tau_H) meets one of K (K = +-tau_K) the flat part of the
     band |K| <= tau_K begins or ends: the class areas' line integrals have a kink in sigma
     there, and a flat region narrower than the spacing of the lines may lie between them.
     The lines are cut at those corners (_Integrator._corner_cuts: found along the crossings
-    of K = +-tau_K, refined on the interpolant by Newton): the class areas match the
-    reference to 1e-10 (straight bands: the interpolants are exact; curved ones: Newton on
-    degree-9 series). Without the cuts, and from the whole square as the first cell, the
-    straight case's flat region, between the first level's lines, is missed altogether
-    (A_flat 0)."""
-    from hullprod_wb.brep import cubature
+    of K = +-tau_K, refined on the interpolant by Newton): on a mixed cell that holds the
+    four corners the cuts are at them to 1e-9 (straight bands: the whole square, whose first
+    lines miss the flat region altogether; curved ones: a quarter-sized cell, Newton on
+    degree-9 series), and the class areas match the reference to 1e-10."""
     tH, tK = 0.05, 0.02
     if curved:
         g = lambda u: 0.5 + 0.1 * np.sin(2 * np.pi * u)
@@ -245,35 +266,30 @@ def test_flat_region_corners_cut_the_lines(monkeypatch, curved):
             return 0.5 + (-c1 + math.sqrt(disc)) / (2 * c2) if disc >= 0 else -10.0
         J = lambda u, v: 1 + 0.5 * u * v
         J_inner = lambda u, a, b: (b - a) + 0.25 * u * (b * b - a * a)
+        box = (0.25, 0.5, 0.5, 0.75)
     else:
         g = lambda u: 0.5 + 0.2 * (u - 0.5)
         H = lambda u, v: u - 0.4 + 0.3 * (v - 0.5)
         vH = lambda u, sign: 0.5 + (0.4 + sign * tH - u) / 0.3
         J = lambda u, v: 1.0
         J_inner = lambda u, a, b: b - a
-    exact, n_corners = _flat_corner_reference(g, vH, tH, tK, J_inner)
-    assert n_corners == 4 and exact["A_flat"] > 1e-3
+        box = (0.0, 1.0, 0.0, 1.0)
+    exact, corners = _flat_corner_reference(g, vH, tH, tK, J_inner)
+    assert len(corners) == 4 and exact["A_flat"] > 1e-3
     f = field_of(J, lambda u, v: v - g(u), H)
-    d = TrimmedDomain.rectangle(0, 1, 0, 1)
-    corner_cuts = cubature.driver._Integrator._corner_cuts
-    cuts = []
-
-    def record(self, *args):
-        out = corner_cuts(self, *args)
-        cuts.append(out[0].size)
-        return out
-
-    monkeypatch.setattr(cubature.driver._Integrator, "_corner_cuts", record)
-    r = integrate(d, f, tH, tK)
-    assert sum(cuts) >= 4 and r.all_converged
+    it, mc, pc = _one_mixed_cell(f, tH, tK, box)
+    F, _, _, _, sig, count, _, ends, series = it._piece_values(mc, pc)
+    piece, at = it._corner_cuts(mc, pc, sig, count, ends, series)
+    assert np.isnan(mc.width).all()  # not turned: sigma = u
+    assert np.all((pc.sa[piece] < at) & (at < pc.sb[piece]))
+    assert np.sort(at) == pytest.approx(corners, abs=1e-9)
+    if not curved:
+        assert F[:, 3].sum() == 0.0  # the lines alone: no flat area
+    r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, tH, tK)
+    assert r.all_converged
     for q, v in exact.items():
         assert r.values[q] == pytest.approx(v, abs=1e-10), q
         assert abs(r.values[q] - v) <= r.errors[q], q
-    if not curved:
-        monkeypatch.setattr(cubature.driver._Integrator, "_corner_cuts", lambda self, pc, *a: (np.empty(0, int), np.empty(0)))
-        monkeypatch.setattr(cubature.cells, "MIN_INITIAL_CELLS", 1)
-        s = integrate(d, f, tH, tK)
-        assert s.values["A_flat"] == 0.0
 
 
 @pytest.mark.parametrize("case", ["elliptic in saddle", "saddle in elliptic", "band in elliptic"])
@@ -281,9 +297,11 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
     """A small island of one class inside a mixed cell, between all of the cell's lines: the
     lines find none of it, but the cell's interpolant holds it. Where the interpolant's
     Bernstein bounds allow a part the lines miss, its extremum of K is searched and the
-    piece through it cut (_Integrator._island_cuts); the next level's lines then meet the
-    island. Class areas within 1e-9 of the closed form and within their error estimates
-    (before: the island's class area 0, error estimate 0)."""
+    piece through it cut (_Integrator._island_cuts): on the whole square as the cell, the
+    first lines give the island's class no area and the cut goes through the island's
+    centre; the next level's lines then meet the island. Class areas within 1e-9 of the
+    closed form and within their error estimates, from the whole square as the first cell
+    and from the default first cells (lines or search)."""
     from hullprod_wb.brep import cubature
     c = np.array([0.33, 0.61])
     r2 = lambda u, v: (u - c[0]) ** 2 + (v - c[1]) ** 2
@@ -291,6 +309,7 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
         tK = 1e-3
         K = lambda u, v: r2(u, v) + 0.5 * tK  # |K| <= tau_K where r^2 <= tau_K / 2
         exact = {"A_single": math.pi * 0.5 * tK, "A_elliptic": 1 - math.pi * 0.5 * tK, "A_saddle": 0.0}
+        island = [3, 4]  # flat, single columns of the line integrals
     else:
         tK, R = 1e-6, 0.03
         sign = 1.0 if case == "elliptic in saddle" else -1.0
@@ -298,23 +317,17 @@ def test_islands_that_no_line_meets_are_found(monkeypatch, case):
         inner, outer = math.pi * (R * R - tK), 1 - math.pi * (R * R + tK)
         exact = {"A_elliptic": inner, "A_saddle": outer} if sign > 0 else {"A_saddle": inner, "A_elliptic": outer}
         exact["A_single"] = 1 - inner - outer
+        island = [5] if sign > 0 else [6]
     f = field_of(lambda u, v: 1.0, K)
-    island_cuts = cubature.driver._Integrator._island_cuts
-    cuts = []
-
-    def record(self, pc, F):
-        out = island_cuts(self, pc, F)
-        cuts.append(out[0].size)
-        return out
-
-    monkeypatch.setattr(cubature.driver._Integrator, "_island_cuts", record)
-    # from the whole square as the first cell, the island lies between the lines of a mixed
-    # cell and is found by the search; from the default first cells as well (lines or search)
+    it, mc, pc = _one_mixed_cell(f, TAU_H, tK)
+    F = it._piece_values(mc, pc)[0]
+    piece, at = it._island_cuts(mc, pc, F)
+    assert mc.interp.use.all() and np.all(F[:, island] == 0.0)
+    centre = c[1] if np.isfinite(mc.width[0]) else c[0]  # sigma of the cell: v where turned
+    assert at.size >= 1 and at == pytest.approx(np.full(at.size, centre), abs=1e-9)
     for first_cells in (1, cubature.cells.MIN_INITIAL_CELLS):
         monkeypatch.setattr(cubature.cells, "MIN_INITIAL_CELLS", first_cells)
-        cuts.clear()
         r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, tK)
-        assert sum(cuts) >= (1 if first_cells == 1 else 0)
         for q, v in exact.items():
             assert r.values[q] == pytest.approx(v, abs=1e-9), q
             assert abs(r.values[q] - v) <= r.errors[q] + 1e-15, q
@@ -685,12 +698,12 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
 
     def record_turn(self, cells, interp):
         out = turn(self, cells, interp)
-        turned.append(int(np.isfinite(out[0]["width"]).sum()))
+        turned.append(int(np.isfinite(out.width).sum()))
         return out
 
-    def record_lines(self, cell, pid, sig, t0, t1, n_counted=0):
+    def record_lines(self, mc, cell, pid, sig, t0, t1, n_counted=0):
         lines.append(pid.size - n_counted)  # the lines integrated
-        return values(self, cell, pid, sig, t0, t1, n_counted)
+        return values(self, mc, cell, pid, sig, t0, t1, n_counted)
 
     monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", record_turn)
     monkeypatch.setattr(cubature.driver._Integrator, "_line_values", record_lines)
@@ -710,8 +723,8 @@ def test_turned_lines_follow_level_curves_along_t(monkeypatch):
     turned.clear()
     lines.clear()
     # no cell turned: the candidates' interpolants hidden from _turn_cells
-    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", lambda self, cells, interp: (
-        turn(self, cells, {**interp, "use": np.zeros_like(interp["use"])})[0], interp))
+    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", lambda self, cells, interp: dataclasses.replace(
+        turn(self, cells, dataclasses.replace(interp, use=np.zeros_like(interp.use))), interp=interp))
     s = integrate(d, f, TAU_H, TAU_K)
     assert sum(turned) == 0 and s.all_converged
     for q, exact in (("A_elliptic", ell), ("A_saddle", sad), ("A_single", 1.125 - ell - sad)):

@@ -22,9 +22,10 @@ class CutSearch:
     """Cut search in sigma for the lines of mixed cells (mixed into driver._Integrator,
     whose state the methods use)."""
 
-    def _edge_cuts(self, cells):
-        """sigma (k,) where level curves cross the cells' edges t = t0 and t = t1, and the
-        cell (k,) of each: the line values have a kink there."""
+    def _edge_cuts(self, mc):
+        """sigma (k,) where level curves cross the edges t = t0 and t = t1 of the MixedCells
+        mc, and the cell (k,) of each: the line values have a kink there."""
+        cells = mc.boxes
         pid = cells["pid"]
         n = pid.size
         E = np.concatenate((np.arange(n), np.arange(n)))
@@ -38,12 +39,12 @@ class CutSearch:
             lo, hi = self.patches.bounds(pe[i], u)
             return self.f(u, lo + tE[i] * (hi - lo))
 
-        evalf = SegmentField(self._interp["C"], self._interp["use"], cells, E, tE, "sigma", fallback)
+        evalf = SegmentField(mc.interp.C, mc.interp.use, cells, E, tE, "sigma", fallback)
         li, _, roots, _ = self._crossings(evalf)
         return E[li], roots
 
-    def _tangent_cuts(self, pc, sig, count, pair, series):
-        """sigma (k,) and piece (k,) where a level curve is tangent to the lines sigma =
+    def _tangent_cuts(self, mc, pc, sig, count, pair, series):
+        """sigma (k,) and piece (k,) of the Pieces pc of the MixedCells mc where a level curve is tangent to the lines sigma =
         const, between neighbouring lines of a piece whose crossing counts differ.
 
         With h = s g_q (s the sign making h < 0 between the closest crossing pair on the
@@ -63,21 +64,21 @@ class CutSearch:
         p, j, q, more, ta, tb = p[keep], j[keep], q[keep], more[keep], ta[keep], tb[keep]
         if p.size == 0:
             return p, np.empty(0)
-        cells = self._pc_cells
-        cell = pc["cell"][p]
+        cells = mc.boxes
+        cell = pc.cell[p]
         t0, t1 = cells["t0"][cell], cells["t1"][cell]
         gap = tb - ta
         w0 = np.maximum(ta - gap, t0)
         w1 = np.minimum(tb + gap, t1)
 
         def level(sg, t, i):
-            _, K, H, reg = self._cell_field(cell[i], sg, t)
+            _, K, H, reg = self._cell_field(mc, cell[i], sg, t)
             return np.where(reg, self._thresholds(K, H)[np.arange(i.size), q[i]], np.nan)
 
         sm = sig[p, more]
         sign = -np.sign(level(sm, 0.5 * (ta + tb), np.arange(p.size)))
 
-        use = self._interp["use"][cell]
+        use = mc.interp.use[cell]
         row, offset = LEVEL_ROW[q], self.level_offset[q]
 
         def phi(sg, i, line=None):
@@ -89,7 +90,7 @@ class CutSearch:
             if k.size:
                 ik = i[k]
                 if line is None:
-                    seg = SegmentField(self._interp["C"], self._interp["use"], cells, cell[ik], sg[k], "t", None)
+                    seg = SegmentField(mc.interp.C, mc.interp.use, cells, cell[ik], sg[k], "t", None)
                     out[k] = seg.window_min(row[ik], offset[ik], sign[ik], w0[ik], w1[ik])
                 else:
                     c0, c1 = cells["t0"][cell[ik]], cells["t1"][cell[ik]]
@@ -112,14 +113,14 @@ class CutSearch:
         if not ok.any():
             return p[:0], np.empty(0)
         i = np.nonzero(ok)[0]
-        w = (pc["sb"] - pc["sa"])[p[i]]
+        w = (pc.sb - pc.sa)[p[i]]
         # on an interpolant: Newton on g = dg/dt = 0 from the closer pair's midpoint; the
         # bracketed search on phi where that fails, and on the field
         root = np.full(i.size, np.nan)
         k = np.nonzero(use[i])[0]
         if k.size:
             ik = i[k]
-            root[k] = tangency_points(self._interp["C"], cells, cell[ik], row[ik], offset[ik], sm[ik], so[ik],
+            root[k] = tangency_points(mc.interp.C, cells, cell[ik], row[ik], offset[ik], sm[ik], so[ik],
                                       w0[ik], w1[ik], sm[ik], 0.5 * (ta + tb)[ik], TANGENT_RTOL * w[k])
         k = np.nonzero(np.isnan(root))[0]
         if k.size:
@@ -128,8 +129,8 @@ class CutSearch:
         inside = _inside_pieces(pc, p[i], root)
         return p[i][inside], root[inside]
 
-    def _corner_cuts(self, pc, sig, count, ends, series):
-        """sigma (k,) and piece (k,) where a level curve of H (H = +-tau_H) meets one of K
+    def _corner_cuts(self, mc, pc, sig, count, ends, series):
+        """sigma (k,) and piece (k,) of the Pieces pc of the MixedCells mc where a level curve of H (H = +-tau_H) meets one of K
         (K = +-tau_K) inside a piece on an interpolant: a corner of the flat region, where
         the class areas' line integrals have a kink in sigma (the flat part of the band
         |K| <= tau_K begins or ends).
@@ -141,13 +142,13 @@ class CutSearch:
         the pair of level equations on the interpolant (level_intersections), from the point
         between the lines where psi interpolates to zero, and kept when it lies between
         them. Corners Newton does not find, and corners on lines of the field, give no cut."""
-        cells = self._pc_cells
-        cell = pc["cell"]
+        cells = mc.boxes
+        cell = pc.cell
         deg = series.shape[-1] - 1
         # pieces on an interpolant, K levels (0, 1) crossed as often (once or twice) on all
         # of their lines, and whether a second crossing is there
         ck = count[:, :, :2]
-        ok = self._interp["use"][cell][:, None] & np.all(ck == ck[:, :1], 1) & (ck[:, 0] >= 1) & (ck[:, 0] <= 2)
+        ok = mc.interp.use[cell][:, None] & np.all(ck == ck[:, :1], 1) & (ck[:, 0] >= 1) & (ck[:, 0] <= 2)
         ok = np.stack((ok, ok & (ck[:, 0] == 2)), -1)  # (n, K level, first or last crossing)
         p = np.nonzero(ok.any((1, 2)))[0]
         if p.size == 0:
@@ -172,14 +173,14 @@ class CutSearch:
         s_start = sa + frac * (sb - sa)
         t_start = tk[i, j, qk, e] + frac * (tk[i, j + 1, qk, e] - tk[i, j, qk, e])
         c = cell[p]
-        root = level_intersections(self._interp["C"], cells, c, LEVEL_ROW[qh], self.level_offset[qh],
+        root = level_intersections(mc.interp.C, cells, c, LEVEL_ROW[qh], self.level_offset[qh],
                                    LEVEL_ROW[qk], self.level_offset[qk], sa, sb, cells["t0"][c], cells["t1"][c],
-                                   s_start, t_start, TANGENT_RTOL * (pc["sb"] - pc["sa"])[p])
+                                   s_start, t_start, TANGENT_RTOL * (pc.sb - pc.sa)[p])
         inside = _inside_pieces(pc, p, root)
         return p[inside], root[inside]
 
-    def _island_cuts(self, pc, F):
-        """sigma (k,) and piece (k,) through islands of a class inside cells on an
+    def _island_cuts(self, mc, pc, F):
+        """sigma (k,) and piece (k,) of the Pieces pc of the MixedCells mc through islands of a class inside cells on an
         interpolant that none of the cell's lines meets (first level: the pieces pc cover
         their cells; F (n, 7) their line integrals): where the lines find no elliptic part
         but the interpolant's K may exceed tau_K (its Bernstein bounds,
@@ -188,16 +189,16 @@ class CutSearch:
         is searched (interpolant_extremum); where it lies beyond the level, the piece through
         it is cut at its sigma, so that the next level's lines next to the cut cross the
         island (and find its tangencies)."""
-        cells = self._pc_cells
-        use = self._interp["use"]
+        cells = mc.boxes
+        use = mc.interp.use
         nc = use.size
-        area = _row_sums(pc["cell"], F[:, 3:], nc)  # flat, single, elliptic, saddle
+        area = _row_sums(pc.cell, F[:, 3:], nc)  # flat, single, elliptic, saddle
         ell, sad, band = area[:, 2] > 0.0, area[:, 3] > 0.0, area[:, 0] + area[:, 1] > 0.0
         tk = self.tau_K
         c = np.nonzero(use & ~(ell & sad & band))[0]
         if c.size == 0:
             return np.empty(0, int), np.empty(0)
-        lo, hi = interpolant_range(self._interp["C"], c, 1)
+        lo, hi = interpolant_range(mc.interp.C, c, 1)
         # the largest K (sign 1) or the least (-1) where the lines miss a part that the bounds
         # allow: beyond tau_K (elliptic), below -tau_K (saddle), into the band from above or
         # below (only elliptic or only saddle on the lines); one search for all of them
@@ -209,13 +210,13 @@ class CutSearch:
             return np.empty(0, int), np.empty(0)
         cell = np.concatenate([a[0] for a in searches])
         sign, bound, strict = (np.concatenate([np.full(a[0].size, a[i]) for a in searches]) for i in (1, 2, 3))
-        val, x, _ = interpolant_extremum(self._interp["C"], cell, 1, sign)
+        val, x, _ = interpolant_extremum(mc.interp.C, cell, 1, sign)
         hit = np.where(strict, val > bound, val >= bound)
         cell, x = cell[hit], x[hit]
         if cell.size == 0:
             return np.empty(0, int), np.empty(0)
         at = cells["s0"][cell] + 0.5 * (x + 1.0) * (cells["s1"][cell] - cells["s0"][cell])
         # the piece of each cell that holds the point, away from its ends
-        i, p = np.nonzero(pc["cell"][None, :] == cell[:, None])
+        i, p = np.nonzero(pc.cell[None, :] == cell[:, None])
         inside = _inside_pieces(pc, p, at[i])
         return p[inside], at[i][inside]

@@ -267,16 +267,16 @@ class _Integrator(LineIntegration, CutSearch):
                 share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
                 lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
                 interp = self._interpolants(a, ch, lined, sub, lbudget)
-                if (not last or (fit_trial and self.depth < self.max_depth)) and not interp["use"].all():
+                if (not last or (fit_trial and self.depth < self.max_depth)) and not interp.use.all():
                     # a cell whose interpolant is not yet accurate is split rather than
                     # integrated on lines of the field: its children's interpolants converge
                     # fast, and four children cost less than the lines of one cell
-                    keep = interp["use"]
+                    keep = interp.use
                     split[np.nonzero(lined)[0][~keep]] = True
                     accept[np.nonzero(lined)[0][~keep]] = False
                     lined[lined] = keep
                     sub = {k: v[keep] for k, v in sub.items()}
-                    interp = {k: v[keep] for k, v in interp.items()}
+                    interp = interp.take(keep)
                     lbudget = lbudget[keep]
             if lined.any():
                 val, lerr, _, charge = self._lines(sub, lbudget, interp)
@@ -294,7 +294,7 @@ class _Integrator(LineIntegration, CutSearch):
                 # Gauss sums' own error at the kink of |K| that the lines remove.
                 kq = slice(2, N_SMOOTH)
                 gap = np.minimum(np.abs(val[:, :3] - sub["Q"][:, kq]), err[lined, kq])
-                gap[interp["use"]] = 0.0
+                gap[interp.use] = 0.0
                 lerr[:, :3] = np.maximum(lerr[:, :3], gap)
                 unit["Q"][lined, LINE_Q] = val
                 err[lined, LINE_Q] = lerr

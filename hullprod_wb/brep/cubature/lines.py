@@ -44,8 +44,8 @@ from ..cell_interpolant import SegmentField, cell_values, fit_interpolants
 from ..gauss_rules import WK, XK, kronrod_error, legendre_vander
 from ..patches import cluster_map
 from ..trimmed_domain import solve_bracketed
-from .cells import _cat, _greedy_accept, _row_sums
-from .pieces import _count_and_pairs, _halve_pieces, _parabolic_min, _segments, _split_pieces
+from .cells import _greedy_accept, _row_sums
+from .pieces import Interpolants, MixedCells, Pieces, _count_and_pairs, _halve_pieces, _parabolic_min, _segments, _split_pieces
 from .settings import (CROSSING_RTOL, CROSSING_STEPS, DIP_FRACTION, INTERPOLANT_SHARE, LEVEL_ROW, MAX_PIECES,
                        M_HI, M_LO, N_LEVELS, N_LINE_Q, N_SMOOTH, SHORT_PIECE, SLIVER, STALL_RATIO, XI3, XI9,
                        ZERO_BOUND_SAFETY, ZERO_CHARGE_PARTS, ZS)
@@ -71,7 +71,7 @@ class LineIntegration:
         regular and finite and these errors are within INTERPOLANT_SHARE of its budget
         (m, 7); the errors are then part of its line error estimate.
 
-        Returns dict C (m, 3, 2o, 2o), use (m,) bool, err (m, 7)."""
+        Returns Interpolants."""
         idx = np.nonzero(sel)[0]
         m = idx.size
         fit = fit_interpolants(parent, children, idx, self._grid_inverse, self._parent_vander)
@@ -103,31 +103,31 @@ class LineIntegration:
         err[:, 3:] += np.abs(units["Q"][:, N_SMOOTH:]) * rel_J[:, None]
         err = np.where(reg[:, None], err, np.inf)
         use = np.all(err <= INTERPOLANT_SHARE * budget, 1)
-        return dict(C=fit["C"], use=use, err=np.where(use[:, None], err, 0.0))
+        return Interpolants(fit["C"], use, np.where(use[:, None], err, 0.0))
 
-    def _segments_t(self, cell, pid, sig):
-        """SegmentField of the lines sigma = sig (L,) of patches pid (L,) in the mixed cells
-        cell (L,), and the lines' strip widths hi - lo (L,) (the constant of turned cells:
-        _turned); the field is evaluated where no interpolant is used."""
+    def _segments_t(self, mc, cell, pid, sig):
+        """SegmentField of the lines sigma = sig (L,) of patches pid (L,) in the cells cell
+        (L,) of the MixedCells mc, and the lines' strip widths hi - lo (L,) (the constant of
+        turned cells: MixedCells.turned); the field is evaluated where no interpolant is used."""
         u, _ = self.patches.u_of_sigma(pid, sig)
         lo, hi = self.patches.bounds(pid, u)
-        width = self._turned(cell, hi - lo, "width")
-        evalf = SegmentField(self._interp["C"], self._interp["use"], self._pc_cells, cell, sig, "t",
+        width = mc.turned(cell, hi - lo, "width")
+        evalf = SegmentField(mc.interp.C, mc.interp.use, mc.boxes, cell, sig, "t",
                              lambda x, i: self.f(u[i], lo[i] + x * width[i]))
         return evalf, width
 
-    def _cell_field(self, cell, sig, t):
-        """J, K, H, regular (m,) at patch coordinates (sig, t) (m,) of the mixed cells cell
-        (m,) (indices into _pc_cells): the interpolant where the cell uses one, else the field."""
-        cells, interp = self._pc_cells, self._interp
+    def _cell_field(self, mc, cell, sig, t):
+        """J, K, H, regular (m,) at patch coordinates (sig, t) (m,) of the cells cell (m,) of
+        the MixedCells mc: the interpolant where the cell uses one, else the field."""
+        cells, interp = mc.boxes, mc.interp
         cell = np.asarray(cell).ravel()
         sig, t = np.broadcast_to(sig, cell.shape).ravel(), np.broadcast_to(t, cell.shape).ravel()
         J, K, H = np.empty(cell.size), np.empty(cell.size), np.empty(cell.size)
         reg = np.ones(cell.size, bool)
-        use = interp["use"][cell]
+        use = interp.use[cell]
         i = np.nonzero(use)[0]
         if i.size:
-            J[i], K[i], H[i] = cell_values(interp["C"], cells, cell[i], sig[i], t[i])
+            J[i], K[i], H[i] = cell_values(interp.C, cells, cell[i], sig[i], t[i])
         i = np.nonzero(~use)[0]
         if i.size:
             pid = cells["pid"][cell[i]]
@@ -253,9 +253,9 @@ class LineIntegration:
         q = np.concatenate((q, counted[1], counted[1]))
         return li, q, np.concatenate((roots, counted[2])), S
 
-    def _line_values(self, cell, pid, sig, t0, t1, n_counted=0):
-        """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)), in the mixed
-        cells cell (L,) (indices into _pc_cells); the last n_counted of them are not
+    def _line_values(self, mc, cell, pid, sig, t0, t1, n_counted=0):
+        """Lines sigma = const of patches pid over t in [t0, t1] (all (L,)), in the cells
+        cell (L,) of the MixedCells mc; the last n_counted of them are not
         integrated: their crossings are only counted (_crossings with refine False; their
         F, E, C are zero).
 
@@ -274,7 +274,7 @@ class LineIntegration:
         over those interpolants on shorter ones (error estimate: against the degree-6
         interpolants at the inner samples)."""
         L = pid.size
-        evalf, width = self._segments_t(cell, pid, sig)
+        evalf, width = self._segments_t(mc, cell, pid, sig)
         nv = L - n_counted  # lines integrated
         li, lq, roots, S = self._crossings(evalf, refine=np.arange(L) < nv)
         counts = _count_and_pairs(li, lq, roots, L)
@@ -367,9 +367,8 @@ class LineIntegration:
         out.update(counts)
         return out
 
-    def _piece_values(self, pc, counted=True):
-        """Gauss-Kronrod 3/7 in sigma over pieces pc (dict of (n,) cell, sa, sb, kind) of the
-        mixed cells _pc_cells; nodes cluster_map(kind) of XI9: the Kronrod nodes, and (with
+    def _piece_values(self, mc, pc, counted=True):
+        """Gauss-Kronrod 3/7 in sigma over the Pieces pc of the MixedCells mc; nodes cluster_map(kind) of XI9: the Kronrod nodes, and (with
         counted) lines next to both ends whose crossings are only counted, to detect
         tangencies there (in the same _line_values call).
         Slivers (pieces without clustered ends narrower than SLIVER of their cell, between
@@ -383,28 +382,28 @@ class LineIntegration:
         cut), the first and last crossing of each level, ends (n, 9, 5, 2) (NaN where none),
         and the power series in t of the lines on interpolants (SegmentField.power)
         (n, 9, 3, d + 1) (without counted, those of the end lines are 0, NaN, NaN and 0)."""
-        cells = self._pc_cells
-        n, m = pc["sa"].size, XI9.size
-        cw = (cells["s1"] - cells["s0"])[pc["cell"]]
-        sliver = ((pc["sb"] - pc["sa"]) < SLIVER * cw) & (pc["kind"] == 0)
+        cells = mc.boxes
+        n, m = pc.size, XI9.size
+        cw = (cells["s1"] - cells["s0"])[pc.cell]
+        sliver = ((pc.sb - pc.sa) < SLIVER * cw) & (pc.kind == 0)
         nk = np.nonzero(~sliver)[0]
         ns = np.nonzero(sliver)[0]
-        c, dc = cluster_map(np.repeat(pc["kind"][nk, None], m, 1), np.broadcast_to(XI9, (nk.size, m)))
-        w = (pc["sb"] - pc["sa"])[:, None]
-        sig = np.repeat(pc["sa"][:, None], m, 1) + w * XI9[None, :]
-        sig[nk] = pc["sa"][nk, None] + w[nk] * c
+        c, dc = cluster_map(np.repeat(pc.kind[nk, None], m, 1), np.broadcast_to(XI9, (nk.size, m)))
+        w = (pc.sb - pc.sa)[:, None]
+        sig = np.repeat(pc.sa[:, None], m, 1) + w * XI9[None, :]
+        sig[nk] = pc.sa[nk, None] + w[nk] * c
         # lines: the Kronrod nodes of the pieces, then the three nodes of the slivers, then
         # (counted only) the two end lines of the pieces
-        sl = pc["sa"][ns, None] + w[ns] * XI3[None, :]
+        sl = pc.sa[ns, None] + w[ns] * XI3[None, :]
         ends = sig[nk][:, [0, -1]].ravel() if counted else np.empty(0)
-        ecell = np.repeat(pc["cell"][nk], 2) if counted else np.empty(0, int)
+        ecell = np.repeat(pc.cell[nk], 2) if counted else np.empty(0, int)
         lsig = np.concatenate((sig[nk, 1:-1].ravel(), sl.ravel(), ends))
-        lcell = np.concatenate((np.repeat(pc["cell"][nk], m - 2), np.repeat(pc["cell"][ns], XI3.size), ecell))
+        lcell = np.concatenate((np.repeat(pc.cell[nk], m - 2), np.repeat(pc.cell[ns], XI3.size), ecell))
         lpid = cells["pid"][lcell]
         nv = lsig.size - ends.size
         _, ldu = self.patches.u_of_sigma(lpid[:nv], lsig[:nv])
-        ldu = self._turned(lcell[:nv], ldu, "du")
-        d = self._line_values(lcell, lpid, lsig, cells["t0"][lcell], cells["t1"][lcell], n_counted=ends.size)
+        ldu = mc.turned(lcell[:nv], ldu, "du")
+        d = self._line_values(mc, lcell, lpid, lsig, cells["t0"][lcell], cells["t1"][lcell], n_counted=ends.size)
         nkl = nk.size * (m - 2)
         Fk, es, et = (np.zeros((n, N_LINE_Q)) for _ in range(3))
         Fc = np.zeros(n)
@@ -446,50 +445,45 @@ class LineIntegration:
         varies more in sigma than in t (the level curves run along t, so lines sigma = const
         would meet them at small angles and cross the cell's t edges, each crossing a cut) is
         given with sigma and t exchanged: the box, its interpolant's axes, and the constant
-        width and du/dsigma of the original in "width" and "du" (NaN for the others, see
-        _turned). The line integrals of a cell do not depend on the direction of its lines."""
+        width and du/dsigma of the original (NaN for the others, see MixedCells.turned). The
+        line integrals of a cell do not depend on the direction of its lines. cells: dict of
+        (n,) pid, s0, s1, t0, t1 (and others, not used); interpolants: their Interpolants.
+        Returns MixedCells."""
         n = cells["pid"].size
         P = self.patches
         pid = cells["pid"]
         affine = (P.umap[pid] == 0) & (P.lo_piece[pid] < 0) & (P.hi_piece[pid] < 0)
-        cand = np.nonzero(interpolants["use"] & affine)[0]
+        cand = np.nonzero(interpolants.use & affine)[0]
         turn = np.zeros(n, bool)
         if cand.size:
             # mean |dK| along each local axis from the K series: sum over the other axis of
             # |coefficients| times the derivative sizes of P_a (a (a + 1) / 2 at the ends)
-            Ck = np.abs(interpolants["C"][cand, 1])
+            Ck = np.abs(interpolants.C[cand, 1])
             dsize = np.arange(Ck.shape[-1]) * (np.arange(Ck.shape[-1]) + 1) / 2.0
             d_sigma = (Ck.sum(2) * dsize).sum(1)
             d_t = (Ck.sum(1) * dsize).sum(1)
             turn[cand] = d_sigma > d_t
-        cells = dict(cells)
-        cells["width"] = np.full(n, np.nan)
-        cells["du"] = np.full(n, np.nan)
+        boxes = {k: cells[k] for k in ("pid", "s0", "s1", "t0", "t1")}
+        width = np.full(n, np.nan)
+        du_const = np.full(n, np.nan)
         if not turn.any():
-            return cells, interpolants
+            return MixedCells(boxes, width, du_const, interpolants)
         k = np.nonzero(turn)[0]
         u, du = P.u_of_sigma(pid[k], np.full(k.size, 0.5))
         lo, hi = P.bounds(pid[k], u)
-        cells["width"][k], cells["du"][k] = hi - lo, du
+        width[k], du_const[k] = hi - lo, du
         for a, b in (("s0", "t0"), ("s1", "t1")):
-            cells[a], cells[b] = cells[a].copy(), cells[b].copy()
-            cells[a][k], cells[b][k] = cells[b][k], cells[a][k].copy()
-        interpolants = dict(interpolants)
-        C = interpolants["C"].copy()
+            boxes[a], boxes[b] = boxes[a].copy(), boxes[b].copy()
+            boxes[a][k], boxes[b][k] = boxes[b][k], boxes[a][k].copy()
+        C = interpolants.C.copy()
         C[k] = np.swapaxes(C[k], 2, 3)
-        interpolants["C"] = C
-        return cells, interpolants
-
-    def _turned(self, cell, values, key):
-        """values (m,) (line widths hi - lo, or du/dsigma) of lines in the cells cell (m,)
-        (indices into _pc_cells), with the constants of turned cells (_turn_cells) put in."""
-        const = self._pc_cells[key][cell]
-        return np.where(np.isnan(const), values, const)
+        return MixedCells(boxes, width, du_const, Interpolants(C, interpolants.use, interpolants.err))
 
     def _lines(self, cells, budget, interpolants):
         """LINE_Q integrals (n, 7), error estimates (n, 7), fit flags (n,) and the part of
         the |K| integral's error estimate charged for unresolved sign changes of K (n,)
-        (_line_values) of mixed cells with error budgets (n, 7).
+        (_line_values) of mixed cells (dict of (n,) pid, s0, s1, t0, t1) with their
+        Interpolants and error budgets (n, 7).
 
         Each cell is cut in sigma at its edge crossings and, as they are found, at
         tangencies of level curves (with a clustered map at those ends, as the square-root
@@ -500,43 +494,40 @@ class LineIntegration:
         or once its accepted errors exceed it, two halves keep more than STALL_RATIO of their
         parent's error, or it holds MAX_PIECES pieces (a singular or rough integrand). A cell
         fits when its total error estimate is within its budget."""
-        cells, interpolants = self._turn_cells(cells, interpolants)
-        self._pc_cells, self._interp = cells, interpolants
-        nc = cells["pid"].size
+        mc = self._turn_cells(cells, interpolants)
+        nc = mc.size
         out, errs, charged = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q)), np.zeros(nc)
-        ec, es = self._edge_cuts(cells)
+        ec, es = self._edge_cuts(mc)
         ar = np.arange(nc)
-        cell, sa, sb = _segments(np.concatenate((cells["s0"], es, cells["s1"])),
+        cell, sa, sb = _segments(np.concatenate((mc.boxes["s0"], es, mc.boxes["s1"])),
                                  np.concatenate((ar, ec, ar)))
-        n = cell.size
-        pc = dict(cell=cell, sa=sa, sb=sb, kind=np.zeros(n, int), perr=np.full(n, np.inf),
-                  sib=np.full(n, -1))
-        left = budget - interpolants["err"]
+        pc = Pieces.whole(cell, sa, sb)
+        left = budget - mc.interp.err
         for level in range(self.class_max_depth + 1):
             last = level == self.class_max_depth
             # the end lines' counts serve the tangency search only, which the last level skips
-            F, e_s, e_t, e_c, sig, count, pair, ends, series = self._piece_values(pc, counted=not last)
+            F, e_s, e_t, e_c, sig, count, pair, ends, series = self._piece_values(mc, pc, counted=not last)
             if last:
                 tp, ts = np.empty(0, int), None
             else:  # tangencies, and corners where a level of H meets a level of K
-                tp, ts = self._tangent_cuts(pc, sig, count, pair, series)
-                cp, cs = self._corner_cuts(pc, sig, count, ends, series)
+                tp, ts = self._tangent_cuts(mc, pc, sig, count, pair, series)
+                cp, cs = self._corner_cuts(mc, pc, sig, count, ends, series)
                 tp, ts = np.concatenate((tp, cp)), np.concatenate((ts, cs))
                 if level == 0:  # and islands of a class that no line of a cell meets
-                    ip, is_ = self._island_cuts(pc, F)
+                    ip, is_ = self._island_cuts(mc, pc, F)
                     tp, ts = np.concatenate((tp, ip)), np.concatenate((ts, is_))
-            cut = np.zeros(pc["sa"].size, bool)
+            cut = np.zeros(pc.size, bool)
             cut[tp] = True
-            c = pc["cell"]
+            c = pc.cell
             err = e_s + e_t
             with np.errstate(divide="ignore", invalid="ignore"):
                 enorm = np.nan_to_num(err / budget[c], nan=0.0).max(1)
             # halves whose errors together did not fall below STALL_RATIO of their parent's
-            sib = pc["sib"]
+            sib = pc.sib
             halves = sib >= 0
             pair_sum = np.bincount(sib[halves], weights=enorm[halves], minlength=cut.size)
             stalled = np.zeros(nc, bool)
-            stalled[c[halves & (pair_sum[np.maximum(sib, 0)] > STALL_RATIO * pc["perr"])]] = True
+            stalled[c[halves & (pair_sum[np.maximum(sib, 0)] > STALL_RATIO * pc.perr)]] = True
             total = budget - left
             total += _row_sums(c, err, nc)
             fits = np.all(total <= budget, 1) & (np.bincount(c[cut], minlength=nc) == 0)
@@ -548,8 +539,8 @@ class LineIntegration:
             charged += np.bincount(c[done], weights=e_c[done], minlength=nc)
             left -= _row_sums(c[done], err[done], nc)
             halve = ~done & ~cut
-            pc = _cat([_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm)])
-            if pc["sa"].size == 0:
+            pc = Pieces.concatenate([_split_pieces(pc, tp, ts), _halve_pieces(pc, halve, enorm)])
+            if pc.size == 0:
                 break
-        errs += interpolants["err"]
+        errs += mc.interp.err
         return out, errs, np.all(errs <= budget, 1), charged

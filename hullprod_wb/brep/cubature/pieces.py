@@ -1,10 +1,90 @@
 """Pieces of the lines of mixed cells, shared by the line integration and the cut search:
-segments of a line between cuts, crossing counts and pairs of a level, pieces split at or
+the mixed cells with their interpolants, segments of a line between cuts, crossing counts and pairs of a level, pieces split at or
 halved between parameters, and a parabolic search for the extremum of a level function
 between samples."""
+from dataclasses import dataclass
+
 import numpy as np
 
 from .settings import EDGE_XI, N_LEVELS, PARABOLIC_STEPS
+
+
+@dataclass(frozen=True)
+class Interpolants:
+    """Tensor interpolants of J, K, H over mixed cells (cell_interpolant), all (m, ...) arrays."""
+
+    #: Legendre coefficients (m, 3, 2o, 2o) of J, K, H in the cell's local (sigma, t)
+    C: np.ndarray
+    #: (m,) bool: the cell's lines run on its interpolant (else on the field)
+    use: np.ndarray
+    #: (m, 7) the interpolant's error in each LINE_Q integral (0 where not used)
+    err: np.ndarray
+
+    def take(self, keep):
+        """The interpolants of the cells keep (a mask or indices)."""
+        return Interpolants(self.C[keep], self.use[keep], self.err[keep])
+
+
+@dataclass(frozen=True)
+class MixedCells:
+    """The mixed cells whose lines are integrated, lines along t (turned cells: sigma and t
+    exchanged, see LineIntegration._turn_cells), with their interpolants."""
+
+    #: dict of (n,) pid, s0, s1, t0, t1: the cells' patches and boxes in (sigma, t)
+    boxes: dict
+    #: (n,) the constant strip width hi - lo of turned cells (NaN: not turned)
+    width: np.ndarray
+    #: (n,) the constant du/dsigma of turned cells (NaN: not turned)
+    du: np.ndarray
+    #: the cells' interpolants (turned with their cells)
+    interp: Interpolants
+
+    @property
+    def size(self):
+        return self.width.size
+
+    def turned(self, cell, values, key):
+        """values (m,) (line widths hi - lo for key "width", du/dsigma for "du") of lines in
+        the cells cell (m,), with the constants of turned cells put in."""
+        const = getattr(self, key)[cell]
+        return np.where(np.isnan(const), values, const)
+
+
+@dataclass(frozen=True)
+class Pieces:
+    """Pieces [sa, sb] in sigma of the lines of mixed cells, all (n,) arrays."""
+
+    #: the mixed cell of each piece (index into the cells being integrated on lines)
+    cell: np.ndarray
+    #: the piece's ends in sigma
+    sa: np.ndarray
+    sb: np.ndarray
+    #: clustered ends (cluster_map): 1 the lower, 2 the upper, 3 both, 0 none
+    kind: np.ndarray
+    #: the error (relative to the budget) of the piece this one is a half of (inf: none)
+    perr: np.ndarray
+    #: the index of that parent piece, shared by both halves (-1: not a half)
+    sib: np.ndarray
+
+    @property
+    def size(self):
+        return self.sa.size
+
+    @classmethod
+    def whole(cls, cell, sa, sb):
+        """Pieces of no clustered end and no parent."""
+        n = cell.size
+        return cls(cell, sa, sb, np.zeros(n, int), np.full(n, np.inf), np.full(n, -1))
+
+    def empty(self):
+        """No pieces (the arrays' types kept)."""
+        return Pieces(self.cell[:0], self.sa[:0], self.sb[:0], self.kind[:0], self.perr[:0], self.sib[:0])
+
+    @staticmethod
+    def concatenate(parts):
+        """The pieces of parts, one after the other."""
+        return Pieces(*(np.concatenate([getattr(p, k) for p in parts])
+                        for k in ("cell", "sa", "sb", "kind", "perr", "sib")))
 
 
 def _segments(cuts, owner):
@@ -79,34 +159,34 @@ def _parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
 
 
 def _split_pieces(pc, piece, at):
-    """Pieces pc (dict of (n,) cell, sa, sb, kind) cut at sigma values at (k,) of pieces
-    piece (k,); the new ends are clustered (cluster_map), old ends keep their clustering."""
+    """Pieces pc cut at sigma values at (k,) of pieces piece (k,); the new ends are
+    clustered (cluster_map), old ends keep their clustering."""
     if piece.size == 0:
-        return {k: v[:0] for k, v in pc.items()}
+        return pc.empty()
     ids = np.unique(piece)
-    cuts = np.concatenate((pc["sa"][ids], at, pc["sb"][ids]))
+    cuts = np.concatenate((pc.sa[ids], at, pc.sb[ids]))
     owner = np.concatenate((ids, piece, ids))
     w, a, b = _segments(cuts, owner)
-    keep_lo = (a == pc["sa"][w]) & (pc["kind"][w] & 1 > 0)
-    keep_hi = (b == pc["sb"][w]) & (pc["kind"][w] & 2 > 0)
-    lo_tan = (a != pc["sa"][w]) | keep_lo
-    hi_tan = (b != pc["sb"][w]) | keep_hi
-    return dict(cell=pc["cell"][w], sa=a, sb=b, kind=lo_tan.astype(int) + 2 * hi_tan.astype(int),
-                perr=np.full(w.size, np.inf), sib=np.full(w.size, -1))
+    keep_lo = (a == pc.sa[w]) & (pc.kind[w] & 1 > 0)
+    keep_hi = (b == pc.sb[w]) & (pc.kind[w] & 2 > 0)
+    lo_tan = (a != pc.sa[w]) | keep_lo
+    hi_tan = (b != pc.sb[w]) | keep_hi
+    return Pieces(pc.cell[w], a, b, lo_tan.astype(int) + 2 * hi_tan.astype(int),
+                  np.full(w.size, np.inf), np.full(w.size, -1))
 
 
 def _halve_pieces(pc, mask, err):
     """The two halves (in sigma) of the pieces pc[mask]; each keeps its outer clustering,
     and records its parent's error err[mask] (n,) and a sibling id (its parent's index)."""
-    cell, sa, sb, kind = (pc[k][mask] for k in ("cell", "sa", "sb", "kind"))
+    cell, sa, sb, kind = pc.cell[mask], pc.sa[mask], pc.sb[mask], pc.kind[mask]
     mid = 0.5 * (sa + sb)
-    return dict(cell=np.repeat(cell, 2), sa=np.stack((sa, mid), 1).ravel(),
-                sb=np.stack((mid, sb), 1).ravel(), kind=np.stack((kind & 1, kind & 2), 1).ravel(),
-                perr=np.repeat(err[mask], 2), sib=np.repeat(np.nonzero(mask)[0], 2))
+    return Pieces(np.repeat(cell, 2), np.stack((sa, mid), 1).ravel(), np.stack((mid, sb), 1).ravel(),
+                  np.stack((kind & 1, kind & 2), 1).ravel(), np.repeat(err[mask], 2),
+                  np.repeat(np.nonzero(mask)[0], 2))
 
 
 def _inside_pieces(pc, piece, at):
     """Whether the sigma values at (k,) lie inside the pieces piece (k,) of pc, farther than
     EDGE_XI of their width from both ends (a cut there would leave a needless sliver)."""
-    w = pc["sb"][piece] - pc["sa"][piece]
-    return (at > pc["sa"][piece] + EDGE_XI * w) & (at < pc["sb"][piece] - EDGE_XI * w)
+    w = pc.sb[piece] - pc.sa[piece]
+    return (at > pc.sa[piece] + EDGE_XI * w) & (at < pc.sb[piece] - EDGE_XI * w)
