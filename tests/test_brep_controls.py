@@ -188,3 +188,11 @@ def test_unstable_refinement_sequence_makes_i_d_unconverged(monkeypatch):
     assert v.status.value == "UNCONVERGED" and v.value is None
     assert v.evidence["refinement_sequence"] == fake
     assert r.validity["I_D_plus"].status.value == "VALID"  # the rule is I_D's
+
+
+def test_timings_share_the_mesh_path_vocabulary():
+    """Every stage's seconds under a key ending in _s, the whole run as total_s (as the mesh path)."""
+    r = assess(plane_face(), lref=3.0)
+    assert {"read_s", "quadrature_s", "total_s"} <= set(r.timings)
+    assert all(k.endswith("_s") and v >= 0.0 for k, v in r.timings.items())
+    assert r.timings["total_s"] >= r.timings["quadrature_s"]

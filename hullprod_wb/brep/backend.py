@@ -463,7 +463,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     recorded = isinstance(inp, RecordedShape)
     if recorded:
         set_reported_versions(inp.versions)
-    timings["read"] = inp.read_seconds if inp.read_seconds is not None else time.perf_counter() - t0
+    timings["read_s"] = inp.read_seconds if inp.read_seconds is not None else time.perf_counter() - t0
 
     t = time.perf_counter()
     n_jobs = resolve_jobs(jobs, len(inp.faces))
@@ -530,7 +530,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     if with_fields and not recorded:  # from records: after the quadrature, with the display meshes
         samples = display_samples()
     th = Thresholds(ref.value, h_f, k_f)
-    timings["display_samples"] = time.perf_counter() - t
+    timings["display_samples_s"] = time.perf_counter() - t
 
     t = time.perf_counter()
     # progress weights: OpenCascade's face areas where known, else the faces' patch counts
@@ -569,7 +569,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         tp = time.perf_counter()
         if not recorded:
             prov.update(shape_provenance(inp.shape, inp.faces, occ_areas, boxes))
-        timings["provenance"] = time.perf_counter() - tp
+        timings["provenance_s"] = time.perf_counter() - tp
 
     results = map_faces(face_work, len(inp.faces), n_jobs, cost=cost, on_done=finished,
                         labels=["Face%d" % n for n, _ in inp.faces], while_waiting=shape_records)
@@ -600,8 +600,8 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
         prov.update(late["provenance"])
         if with_fields:
             samples = display_samples(late["display"])
-        timings["provenance"] += time.perf_counter() - tp
-    timings["quadrature"] = time.perf_counter() - t
+        timings["provenance_s"] += time.perf_counter() - tp
+    timings["quadrature_s"] = time.perf_counter() - t
 
     results, left_out = evaluated_faces(results)
     integrals = SurfaceIntegrals.zero()
@@ -629,7 +629,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     prov["quadrature"] = [{"face": f.number, **f.quad.to_dict()} for f in results]
     if cross_checks:
         prov["cross_checks"] = [f.cross_check for f in results]
-    timings["provenance"] += time.perf_counter() - t
+    timings["provenance_s"] += time.perf_counter() - t
 
     fields = display_fields(samples, ref.value, th) if with_fields else None
     if fields is not None:
@@ -642,7 +642,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
                                                                "; ".join(f.reason for f in left_out))]
     else:
         warnings_left_out = []
-    timings["total"] = time.perf_counter() - t0
+    timings["total_s"] = time.perf_counter() - t0
     info = dict(inp.info)
     prov["reading"] = ("OpenCascade in a separate process; faces integrated from its plain records "
                        "(poles, knots, weights, p-curves)" if recorded else "OpenCascade in this process")
