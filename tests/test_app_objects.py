@@ -440,6 +440,28 @@ def test_compare_flags_reference_lengths_that_differ(doc):
     assert len(flags) == 1 and "factor 2" in flags[0] and "L_ref^2" in flags[0]
 
 
+def test_units_in_words(doc):
+    """Every analysis names its length unit (a mesh without one: 'mesh units', never '?'),
+    and areas read in m\u00b2 for a millimetre hull, in mm\u00b2 for a millimetre part, one unit
+    per table (chosen by the reference area)."""
+    from hullprod_wb.app import compare_analyses, make_analysis
+    from hullprod_wb.app.analysis import length_unit_label
+    from hullprod_wb.examples.analytic_meshes import half_wigley_mesh
+    from hullprod_wb.gui.wording import area_text
+    a = make_analysis(wigley_feature(doc), lref=1.0, order=4, rtol=1e-3, max_depth=3)
+    m = make_analysis(mesh_feature(doc, *half_wigley_mesh(24, 8)), lref=1.0)
+    assert length_unit_label(a) == "mm" and length_unit_label(m) == "mesh units"
+    cmp = compare_analyses([a, m])
+    assert [c["units"] for c in cmp["context"]] == ["mm", "mesh units"]
+    unit_flags = [f for f in cmp["flags"] if f.startswith("different length units")]
+    assert unit_flags and "?" not in unit_flags[0] and "mesh units" in unit_flags[0]
+    assert area_text(6.00408e6, "mm") == "6.00408 m\u00b2"
+    assert area_text(0.074, "mm") == "0.074 mm\u00b2"
+    assert area_text(0.074, "mm", reference=6.0e6) == "7.4e-08 m\u00b2"  # a sliver in a hull's table
+    assert area_text(23918.9, "mesh units") == "23918.9 (mesh units)\u00b2"
+    assert area_text(2.5, "ft") == "2.5 ft\u00b2" and area_text(None, "mm") == "n/a"
+
+
 def test_console_mode_records_the_object(doc):
     """Without the GUI the assessment runs in this process; its input record names the
     object and carries the sha256 of the shape's BRep text (what an export writes)."""

@@ -320,6 +320,17 @@ def restore_floats_from_json(obj):
 
 
 # -- queries ---------------------------------------------------------------------------------
+def length_unit_label(obj):
+    """The analysis's length unit in words: 'mm' for CAD files and FreeCAD shapes (FreeCAD
+    works in millimetres), the recorded unit otherwise, 'mesh units' for a mesh that has none."""
+    unit = str(getattr(obj, "Units", "") or "")
+    if unit == "mm" or "FreeCAD: mm" in unit:
+        return "mm"
+    if unit:
+        return unit
+    return "mesh units" if getattr(obj, "Representation", "") == "mesh" else "model units"
+
+
 def is_analysis(obj):
     """True for a HullProdAnalysis document object."""
     proxy = getattr(obj, "Proxy", None)

@@ -8,7 +8,7 @@ import math
 
 from ..core.constants import METRICS
 from ..core.errors import InputError
-from .analysis import is_analysis, result_document, signature_of
+from .analysis import is_analysis, length_unit_label, result_document, signature_of
 
 #: L_ref / automatic-span ratios differing by more than this fraction mean different
 #: length conventions (e.g. L_pp against overall length: typically 3 % or more).
@@ -33,13 +33,13 @@ def comparison_flags(objs):
     differs(lambda o: o.Representation, "different representations (BRep and mesh are different estimators)")
     differs(lambda o: o.LrefUsedMode, "different L_ref modes")
     differs(lambda o: "h_f=%g k_f=%g" % (o.Hf, o.Kf), "different class thresholds")
-    differs(lambda o: o.Units or "?", "different length units")
+    differs(length_unit_label, "different length units")
     lrefs = {o.Label: o.LrefUsed for o in objs}
     if min(lrefs.values()) > 0 and max(lrefs.values()) > (1 + LREF_CONVENTION_TOL) * min(lrefs.values()):
         flags.append("L_ref differs by a factor %.3g (%s): I_D scales with L_ref^2, so the values are not "
                      "comparable; give both the same explicit L_ref"
                      % (max(lrefs.values()) / min(lrefs.values()),
-                        ", ".join("%s %.6g %s" % (k, v, o.Units) for (k, v), o in zip(lrefs.items(), objs))))
+                        ", ".join("%s %.6g %s" % (k, v, length_unit_label(o)) for (k, v), o in zip(lrefs.items(), objs))))
     ratios = {o.Label: _ratio(o) for o in objs}
     finite = [r for r in ratios.values() if not math.isnan(r)]
     if finite and (max(finite) - min(finite)) > LREF_CONVENTION_TOL * max(finite):
@@ -74,7 +74,7 @@ def compare_analyses(objs):
         "values": {m: [s[m]["value"] for s in sigs] for m in METRICS},
         "statuses": {m: [s[m]["status"] for s in sigs] for m in METRICS},
         "context": [{"representation": o.Representation, "L_ref": o.LrefUsed, "L_ref mode": o.LrefUsedMode,
-                     "h_f": o.Hf, "k_f": o.Kf, "units": o.Units,
+                     "h_f": o.Hf, "k_f": o.Kf, "units": length_unit_label(o),
                      "faces": ",".join(map(str, o.FacesUsed)) or "all"} for o in objs],
         "flags": comparison_flags(objs),
     }

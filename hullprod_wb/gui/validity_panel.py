@@ -9,6 +9,7 @@ import json
 from ..app import analysis as app_analysis
 from ..core.constants import METRIC_LABELS, METRICS
 from . import colormaps, wording
+from .wording import area_text
 from .legend import make_legend_widget
 from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
@@ -28,19 +29,6 @@ def units_text(units, fallback=""):
             parts.append(units["note"])
         return "; ".join(parts) or fallback
     return str(units or fallback)
-
-
-def area_text(value, units):
-    """An area in words a naval architect reads: m^2 for a millimetre model, else the
-    model's unit squared ('mesh units^2' when the mesh carries no unit)."""
-    if value is None or value != value:
-        return "n/a"
-    u = str(units or "")
-    if "mm" in u or "FreeCAD" in u:
-        return "%.6g m\u00b2" % (value / 1e6)
-    if not u or u == "?":
-        return "%.6g (model units)\u00b2" % value
-    return "%.6g %s\u00b2" % (value, u)
 
 
 def _item(text, tip=None):
@@ -96,7 +84,7 @@ class ValidityPanel(CloseOnlyPanel):
         text = ("<b>%s</b> &mdash; %s of <i>%s</i><br>L_ref = %.6g %s (%s)%s<br>h_f = %g, k_f = %g "
                 "(tau_H = %.3g, tau_K = %.3g)" % (
                     o.Label, "native BRep" if o.Representation == "brep" else "triangle mesh", src,
-                    rl["value"], o.Units, rl["mode"],
+                    rl["value"], app_analysis.length_unit_label(o), rl["mode"],
                     "" if rl["mode"] == "automatic" else "; automatic proposal %.6g" % rl["automatic_value"],
                     th["h_f"], th["k_f"], th["tau_H"], th["tau_K"]))
         if o.Status != "ok":
@@ -144,9 +132,9 @@ class ValidityPanel(CloseOnlyPanel):
         ev = self.doc["validity"]["I_D"].get("evidence", {})
         ev_text = "; ".join("%s = %s" % (k, wording.format_value(v) if isinstance(v, float) else v)
                             for k, v in list(ev.items())[:6] if not isinstance(v, (dict, list)))
-        units = self.obj.Units or ("mesh units" if self.obj.Representation == "mesh" else "")
+        units = app_analysis.length_unit_label(self.obj)
         lab = QtWidgets.QLabel("Represented area %s, valid area %s (%.2f %%).<br>"
-                               "Evidence (I_D): %s" % (area_text(rep, units), area_text(valid, units), share,
+                               "Evidence (I_D): %s" % (area_text(rep, units), area_text(valid, units, rep), share,
                                                        ev_text or "none recorded"))
         lab.setWordWrap(True)
         self.areas_label = lab
@@ -245,6 +233,8 @@ class ValidityPanel(CloseOnlyPanel):
 
     def _face_table(self):
         faces = self.doc["provenance"]["faces"]
+        unit = app_analysis.length_unit_label(self.obj)
+        whole = self.doc.get("integrals", {}).get("represented_area")
         box = QtWidgets.QGroupBox("Plates: each BRep face on its own")
         v = QtWidgets.QVBoxLayout(box)
         t = QtWidgets.QTableWidget(len(faces), len(FACE_COLUMNS) - 1)
@@ -254,7 +244,7 @@ class ValidityPanel(CloseOnlyPanel):
         for i, f in enumerate(faces):
             a_c = f.get("a_C") or {}
             cells = ["Face%d" % f["face"], str(f.get("status", "")), wording.format_value(f.get("I_D")),
-                     wording.format_value(f.get("area_share"), 3), area_text(f.get("area"), self.obj.Units),
+                     wording.format_value(f.get("area_share"), 3), area_text(f.get("area"), unit, whole),
                      f.get("surface_type", ""), wording.format_value(f.get("I_D_plus")),
                      wording.format_value(f.get("I_D_minus"))]
             cells += [wording.format_value(a_c.get(n), 3) for n in ("flat", "single", "elliptic", "saddle")]
@@ -286,7 +276,7 @@ class ValidityPanel(CloseOnlyPanel):
                                      else "discrete curvature on triangles")),
             ("file", inp.get("path") or "FreeCAD object %s" % inp.get("name", "")),
             ("sha256", inp.get("sha256") or "\u2014 (in-memory shape)"),
-            ("units", units_text(units, self.obj.Units)),
+            ("units", units_text(units, app_analysis.length_unit_label(self.obj))),
             ("L_ref", "%s: %s" % (d["reference_length"]["mode"], d["reference_length"]["method"])),
             ("faces used", ", ".join("Face%d" % f for f in inp.get("faces_used") or []) or "all"),
             ("software", ", ".join("%s %s" % (k, v) for k, v in sw.items() if v and k != "package")),

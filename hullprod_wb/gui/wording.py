@@ -41,3 +41,22 @@ def format_value(value, digits=6):
     if value is None:
         return "\u2014"
     return "%.*g" % (digits, value)
+
+
+#: Below this many mm² (0.01 m², a 100 mm square) an area of a millimetre model reads in mm².
+MM2_PER_M2_THRESHOLD = 1e4
+
+
+def area_text(value, unit, reference=None):
+    """An area in words a naval architect reads: m² for a millimetre model whose area (or
+    the reference area, e.g. the whole shape's, so that one table keeps one unit) is at least
+    0.01 m², else the model's unit squared; unit is a length_unit_label (analysis.py)."""
+    if value is None or value != value:
+        return "n/a"
+    u = str(unit or "model units")
+    scale = abs(reference if reference is not None and reference == reference else value)
+    if u == "mm" and scale >= MM2_PER_M2_THRESHOLD:
+        return "%.6g m\u00b2" % (value / 1e6)
+    if " " in u:
+        return "%.6g (%s)\u00b2" % (value, u)
+    return "%.6g %s\u00b2" % (value, u)
