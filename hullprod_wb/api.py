@@ -40,14 +40,17 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
     options: BRep settings (order, rtol, max_depth, protocol, point_budget, depth_limit: see
     brep.budget.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
     brep.face_pool). A FreeCAD document (.FCStd path): object_name (Name or Label) selects
-    its object (document_input.pick_object). Every file's structure is checked before a
+    its object (document_input.document_object). Every file's structure is checked before a
     reader sees it (core.file_checks). Returns an Assessment.
     """
     rep = representation_of(source)
     if rep == "document":
-        from .document_input import assess_document
-        return assess_document(source, object_name, lref=lref, h_f=h_f, k_f=k_f, backend=backend, faces=faces,
-                               with_fields=with_fields, progress=progress, **options)
+        from .document_input import document_object
+        with document_object(source, object_name) as (obj, record):
+            result = assess(obj, lref=lref, h_f=h_f, k_f=k_f, backend=backend, faces=faces,
+                            with_fields=with_fields, progress=progress, **options)
+        result.input = {**(result.input or {}), **record, "representation": result.input.get("representation")}
+        return result
     if object_name is not None:
         raise InputError("--object selects an object of a FreeCAD document (.FCStd); the input is a %s" % rep)
     if backend is not None and backend != rep:

@@ -6,6 +6,10 @@ The object is named (Name or Label), or else the document's one shape-bearing to
 object (an object no other object uses); of several, the one that is visible when only one
 is; otherwise the choice is the user's (InputError listing them).
 """
+import os
+from contextlib import contextmanager
+
+from .batch.parametric import open_document
 from .core.errors import InputError
 from .core.inputs import sha256_file
 
@@ -51,20 +55,14 @@ def pick_object(doc, path, name=None):
                      % (path, len(top), _describe(top)))
 
 
-def assess_document(path, object_name=None, **kwargs):
-    """Assessment of one object of the FreeCAD document at path (api.assess's keyword
-    arguments); its input record has the document's path and sha256 and the object's name,
-    label and type, and how it was chosen."""
-    import os
-
-    from .api import assess
-    from .batch.parametric import open_document
+@contextmanager
+def document_object(path, object_name=None):
+    """(object, input record) of the FreeCAD document at path while it is open: the record
+    has the document's path and sha256, the object's name, label and type, and how it was
+    chosen (pick_object)."""
     path = os.path.abspath(os.fspath(path))
     digest = sha256_file(path)
     with open_document(path) as doc:
         obj, how = pick_object(doc, path, object_name)
-        result = assess(obj, **kwargs)
-        record = {"path": path, "sha256": digest, "format": "fcstd", "object": obj.Name, "label": obj.Label,
-                  "object_type": obj.TypeId, "object_choice": how}
-    result.input = {**(result.input or {}), **record, "representation": result.input.get("representation")}
-    return result
+        yield obj, {"path": path, "sha256": digest, "format": "fcstd", "object": obj.Name, "label": obj.Label,
+                    "object_type": obj.TypeId, "object_choice": how}
