@@ -28,37 +28,45 @@ def _sha256(path, size, mtime_ns, chunk=1 << 20):
     return h.hexdigest()
 
 
+def checked_path(path, representation=None):
+    """(absolute path, format, representation) of a readable, non-empty file of a known
+    format; representation ('mesh', 'brep', 'document') restricts the formats accepted."""
+    kind = representation + " " if representation else ""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError("expected a %sfile path, got %r" % (kind, path))
+    path = os.fspath(path)
+    if not os.path.exists(path):
+        raise InputError("%s file not found: %s" % (representation or "input", path))
+    if not os.path.isfile(path):
+        raise InputError("%s input is not a file: %s" % (representation or "the", path))
+    ext = os.path.splitext(path)[1].lower()
+    tables = [(MESH_FORMATS, "mesh"), (BREP_FORMATS, "brep"), (DOCUMENT_FORMATS, "document")]
+    tables = [t for t in tables if representation in (None, t[1])]
+    for formats, rep in tables:
+        if ext in formats:
+            break
+    else:
+        known = sorted(set().union(*(f for f, _ in tables)))
+        known = [".FCStd" if k == ".fcstd" else k for k in known]
+        raise InputError("unknown %s format '%s' for %s (known: %s)" % (
+            representation or "input", ext or "no extension", path, ", ".join(known)))
+    if os.path.getsize(path) == 0:
+        raise InputError("%s file is empty: %s" % (representation or "input", path))
+    return os.path.abspath(path), formats[ext], rep
+
+
 def describe_file(path):
-    """Check that path is a readable, non-empty file of a known format whose structure is
-    whole (file_checks.check_file: an InputError naming what is missing, before any reader
-    sees the file).
+    """Check that path is a readable, non-empty file of a known format (checked_path) whose
+    structure is whole (file_checks.check_file: an InputError naming what is missing, before
+    any reader sees the file).
 
     Returns dict(path, sha256, format, representation, size_bytes, and declared: what the
     file declares, e.g. declared_faces, when its format declares it).
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise InputError("expected a file path, got %r" % (path,))
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise InputError("input file not found: %s" % path)
-    if not os.path.isfile(path):
-        raise InputError("input is not a file: %s" % path)
-    ext = os.path.splitext(path)[1].lower()
-    if ext in MESH_FORMATS:
-        fmt, rep = MESH_FORMATS[ext], "mesh"
-    elif ext in BREP_FORMATS:
-        fmt, rep = BREP_FORMATS[ext], "brep"
-    elif ext in DOCUMENT_FORMATS:
-        fmt, rep = DOCUMENT_FORMATS[ext], "document"
-    else:
-        known = ", ".join(sorted(set(MESH_FORMATS) | set(BREP_FORMATS)) + [".FCStd"])
-        raise InputError("unknown input format '%s' for %s (known: %s)" % (ext or "no extension", path, known))
+    path, fmt, rep = checked_path(path)
     size = os.path.getsize(path)
-    if size == 0:
-        raise InputError("input file is empty: %s" % path)
-    info = {"path": os.path.abspath(path), "sha256": sha256_file(path), "format": fmt,
-            "representation": rep, "size_bytes": size}
-    declared = checked_structure(info["path"], fmt, size, os.path.getmtime(path))
+    info = {"path": path, "sha256": sha256_file(path), "format": fmt, "representation": rep, "size_bytes": size}
+    declared = checked_structure(path, fmt, size, os.path.getmtime(path))
     if declared:
         info["declared"] = dict(declared)
     return info

@@ -102,7 +102,6 @@ class ViewProviderHullProdAnalysis:
         self.Object = vobj.Object
         self.colors = np.zeros((0, 3))
         self.legend = None
-        self.probe_marker = None
         self.root = coin.SoSeparator()
         offset = coin.SoPolygonOffset()  # drawn just in front of a coincident source surface
         offset.factor = -1.0

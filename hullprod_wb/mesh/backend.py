@@ -35,12 +35,13 @@ from ..core.fields import DistributedFields
 from ..core.integrals import integrals_from_samples
 from ..core.progress import null_progress
 from ..core.reference_length import resolve_reference_length
+from ..core.inputs import checked_path
 from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..core.validity import MetricValidity, Status
 from .curvature import vertex_curvature
-from .loading import check_mesh_path, file_record, load_prepared, prepared_from_arrays, \
+from .loading import file_record, load_prepared, prepared_from_arrays, \
     prepared_from_freecad, prepared_from_trimesh
 from .memory import check_memory
 from .quality import mesh_quality
@@ -57,7 +58,7 @@ def open_mesh(source, progress=None):
     """(loading.PreparedMesh, input dict) from a path, trimesh, (vertices, faces) or FreeCAD
     mesh. progress(fraction of the loading, message)."""
     if isinstance(source, (str, os.PathLike)):
-        path, fmt = check_mesh_path(source)
+        path, fmt, _ = checked_path(source, "mesh")
         check_memory(path, fmt)
         info = {"path": path, "format": fmt, "representation": "mesh"}
         info.update(file_record(path))

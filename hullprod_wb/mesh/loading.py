@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.inputs import MESH_FORMATS, sha256_file
+from ..core.inputs import checked_path, sha256_file
 from .curvature import check_arrays
 from .face_geometry import face_measures
 from .readers import read_mesh_file
@@ -42,24 +42,6 @@ def _trimesh():
     return trimesh
 
 
-def check_mesh_path(path):
-    """Return (absolute path, format) of a readable, non-empty .stl/.obj/.ply file."""
-    if not isinstance(path, (str, os.PathLike)):
-        raise InputError("expected a mesh file path, got %r" % (path,))
-    path = os.fspath(path)
-    if not os.path.exists(path):
-        raise InputError("mesh file not found: %s" % path)
-    if not os.path.isfile(path):
-        raise InputError("mesh input is not a file: %s" % path)
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in MESH_FORMATS:
-        raise InputError("unknown mesh format '%s' for %s (known: %s)"
-                         % (ext or "no extension", path, ", ".join(sorted(MESH_FORMATS))))
-    if os.path.getsize(path) == 0:
-        raise InputError("mesh file is empty: %s" % path)
-    return os.path.abspath(path), MESH_FORMATS[ext]
-
-
 def load_mesh(path):
     """Read an STL (ASCII or binary), OBJ or PLY file and prepare it (module docstring).
 
@@ -70,7 +52,7 @@ def load_mesh(path):
 
 def load_prepared(path, progress=None):
     """Read and prepare a mesh file: a PreparedMesh (see :func:`prepare`)."""
-    path, fmt = check_mesh_path(path)
+    path, fmt, _ = checked_path(path, "mesh")
     progress = progress or (lambda fraction, message: None)
     progress(0.0, "reading %s" % os.path.basename(path))
     raw = read_mesh_file(path, fmt)
