@@ -61,7 +61,7 @@ def versions(load=True):
     """FreeCAD and OpenCascade versions as strings, or None where FreeCAD is absent (those
     of the reading process, set_reported_versions, when FreeCAD is not loaded here). With
     load False, None unless FreeCAD is loaded already or reported (a computation that does
-    not use it: no 0.4 s import)."""
+    not use it: FreeCAD is not imported for it)."""
     if _REPORTED is not None and "FreeCAD" not in sys.modules:
         return dict(_REPORTED)
     if not load and "FreeCAD" not in sys.modules:

@@ -62,7 +62,7 @@ def fork_is_safe():
     if not fork_is_clean():
         return False
     # a daemonic multiprocessing worker (a batch pool's) may not have children; a process
-    # that has not imported multiprocessing is none (and need not import it: 10-15 ms)
+    # that has not imported multiprocessing is none (and need not import it)
     mp = sys.modules.get("multiprocessing")
     if mp is not None and mp.current_process().daemon:
         return False

@@ -11,8 +11,8 @@ from .validity import STATUS_MEANING
 
 def dist_version(name):
     """Version of an installed distribution from its metadata folder's name
-    (name-VERSION.dist-info or .egg-info on sys.path), without importing it (trimesh: 0.15 s)
-    or importlib.metadata (about 40 ms); importlib.metadata where the name does not tell.
+    (name-VERSION.dist-info or .egg-info on sys.path), without importing it or importlib.metadata
+    (both cost start-up time); importlib.metadata where the name does not tell.
     None when not installed."""
     import glob
     import sys
