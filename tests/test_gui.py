@@ -213,7 +213,7 @@ def test_validity_panel(gui):
     assert rec["scale_before"] == ["Percentile", "Logarithmic"]
     assert rec["fixed_ticks"][0] == "1" and rec["fixed_ticks"][-1] == "1e+04"  # the preset reached the map
     assert "linear" in rec["linear_title"]
-    assert "m\u00b2" in rec["areas"] and "{" not in rec["units_row"]
+    assert "0.0743953 mm\u00b2" in rec["areas"] and "{" not in rec["units_row"]  # a 1 mm part: mm², not 7e-08 m²
     assert rec["reason_scrolls"] is False  # the reasons wrap instead of scrolling sideways
     assert_not_blank(rec["png"])
 
