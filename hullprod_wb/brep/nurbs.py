@@ -25,7 +25,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..core.errors import InputError
-from .plain_records import nurbs_record
+from .occ_records import nurbs_record
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
@@ -230,7 +230,7 @@ class NurbsSurfaceData:
 
     @classmethod
     def from_record(cls, rec):
-        """From plain_records.nurbs_record's plain data (the same numbers)."""
+        """From occ_records.nurbs_record's plain data (the same numbers)."""
         rec = dict(rec)
         poles = np.array(rec.pop("poles"), dtype=float)
         weights = rec.pop("weights")
