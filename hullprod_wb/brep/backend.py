@@ -584,7 +584,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     values = signature_values(integrals, ref.value)
     history = refinement_history(results, ref.value)
     validity = metric_validity(results, integrals, values, opts, history)
-    rows = face_records(results, integrals, ref.value, th.tau_H, th.tau_K)
+    rows = face_records(results, integrals, ref.value)
     if left_out:
         rows = sorted(rows + [f.record() for f in left_out], key=lambda r: r["face"])
         mark_left_out(validity, left_out, integrals.represented_area)

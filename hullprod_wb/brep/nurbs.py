@@ -254,17 +254,6 @@ class NurbsSurfaceData:
         """(nu, nv): number of poles in u and v."""
         return self.poles.shape[:2]
 
-    def interior_knots(self, direction):
-        """Distinct interior knots of the domain and their multiplicities, ((k,), (k,) int).
-
-        direction: 'u' or 'v'. Periodic directions also list the seam (first knot), which is
-        a knot line of the closed surface.
-        """
-        knots, mults, period = self._dir(direction)[:3]
-        if period is not None:
-            return knots[:-1].copy(), mults[:-1].copy()
-        return knots[1:-1].copy(), mults[1:-1].copy()
-
     def _dir(self, direction):
         if direction == "u":
             return self.uknots_distinct, self.umults, self.uperiod, self.udegree, self.urange
