@@ -8,9 +8,8 @@ Python use (inside FreeCAD, FreeCADCmd or /usr/bin/python3 with FreeCAD's module
     obj = hullprod_wb.make_analysis(doc_object, lref=5720.0)   # parametric document object
     table = hullprod_wb.assess_many(["a.step", "b.stl"], workers=2)
 """
-__version__ = "0.1.0"
-
-from .core.errors import InputError  # noqa: E402,F401
+from .core.errors import InputError  # noqa: F401
+from .core.version import __version__  # noqa: F401
 
 
 def __getattr__(name):

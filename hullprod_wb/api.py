@@ -14,7 +14,7 @@ def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
         return describe_file(source)["representation"]  # and its structure checked
-    if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.plain_records)
+    if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.record_reader)
         return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
         return "mesh"
@@ -66,9 +66,9 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
                            progress=progress)
     if isinstance(source, (str, os.PathLike)):
         # OpenCascade reads the file in a child, which sends its plain records while this
-        # process loads numpy and the backend (brep.plain_records); a reader that ends the
+        # process loads numpy and the backend (brep.record_reader); a reader that ends the
         # child is reported (core.errors.ReaderDied), and this process reads no file itself
-        from .brep.plain_records import ReadInChild
+        from .brep.record_reader import ReadInChild
         source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
     try:
         from .brep.backend import assess_brep

@@ -46,7 +46,7 @@ def freecad_available():
     return True
 
 
-#: Versions reported by the process that read the input (plain_records), when this one has
+#: Versions reported by the process that read the input (record_reader), when this one has
 #: not loaded FreeCAD itself.
 _REPORTED = None
 

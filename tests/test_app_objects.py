@@ -398,9 +398,11 @@ def test_shared_mesh_hull(doc):
 
 # -- package metadata and icons ----------------------------------------------------------------
 def test_package_xml_for_addon_manager(fc):
+    from hullprod_wb import __version__
     meta = fc.Metadata(os.path.join(ROOT, "package.xml"))
     assert meta.Name == "HullProd" and meta.Description
     assert [int(x) for x in meta.Version.split(".")] >= [0, 1, 0]
+    assert meta.Version == __version__
     assert any(lic["name"] == "MIT" for lic in meta.License)  # SPDX identifier
     assert any(u["type"] == "repository" and u["location"].startswith("https://") for u in meta.Urls)
     assert meta.Maintainer and meta.Maintainer[0]["name"]

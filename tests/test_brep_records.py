@@ -1,5 +1,5 @@
 """A BRep file assessed from the plain records of a reading child process
-(brep.plain_records, brep.recorded_shape): the same numbers, to the bit, as reading it in
+(brep.record_reader, brep.recorded_shape): the same numbers, to the bit, as reading it in
 this process; faces the records do not describe sent as OpenCascade's data; a child that
 dies reported; errors with the same messages; a reading side that never loads numpy."""
 import math
@@ -52,7 +52,7 @@ def trimmed_bspline_face():
 def both_ways(path, **kw):
     """(assessed from the records of a reading child, assessed from the file read here)."""
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.record_reader import ReadInChild
     with_fields = kw.get("with_fields", True)
     recorded = assess_brep(ReadInChild(path, kw.get("faces"), with_fields), **kw)
     here = assess_brep(path, **kw)
@@ -135,7 +135,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
     OpenCascade's binary BRep data and rebuilt where they are integrated: the values of the
     file read here, whatever the processes."""
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, V = _part()
     box, mixed = str(tmp_path / "box.step"), str(tmp_path / "mixed.step")
@@ -159,7 +159,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
 
 def test_errors_of_the_reading_process_are_raised_here(tmp_path):
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.record_reader import ReadInChild
     bad = tmp_path / "bad.igs"
     bad.write_text("not an IGES file\n" * 5)
     with pytest.raises(InputError) as here:
@@ -184,7 +184,7 @@ def test_a_reading_process_that_dies_is_reported(tmp_path, monkeypatch):
     """A reading process that ends (an exit or a signal) before its last frame raises
     ReaderDied, naming the file, what OpenCascade was doing and the likely cause; nothing
     is read here instead."""
-    from hullprod_wb.brep import lref_samples, loading, plain_records
+    from hullprod_wb.brep import lref_samples, loading, record_reader
     from hullprod_wb.brep.backend import assess_brep
     from hullprod_wb.core.errors import ReaderDied
     path = str(tmp_path / "wavy.step")
@@ -197,14 +197,14 @@ def test_a_reading_process_that_dies_is_reported(tmp_path, monkeypatch):
         return original(*args)
     for module, name, stand_in, what in (
             (loading, "read_shape", _dies_in_child, "OpenCascade's STEP reader ended the process (exit 3)"),
-            (plain_records, "face_record", _dies_in_child,
+            (record_reader, "face_record", _dies_in_child,
              "OpenCascade ended the reading process while describing the faces (exit 3)"),
-            (lref_samples, "tessellate_faces", killed,
+            (record_reader, "tessellate_faces", killed,
              "OpenCascade ended the reading process while tessellating the faces (signal 9, SIGKILL)")):
         with monkeypatch.context() as m:
             m.setattr(module, name, stand_in)
             with pytest.raises(ReaderDied) as err:
-                assess_brep(plain_records.ReadInChild(path, None, False), with_fields=False, lref=4.0)
+                assess_brep(record_reader.ReadInChild(path, None, False), with_fields=False, lref=4.0)
             assert str(err.value) == "%s: %s; the file is probably damaged" % (path, what)
             if name == "read_shape":  # a file loaded by the other commands (studies) too
                 with pytest.raises(ReaderDied, match="STEP reader ended the process"):
@@ -219,9 +219,9 @@ def test_the_reading_side_does_not_load_numpy(tmp_path):
         "sys.path.insert(0, %r)\n"
         "from hullprod_wb.freecad_env import import_freecad\n"
         "import_freecad()\n"
-        "from hullprod_wb.brep import plain_records\n"
+        "from hullprod_wb.brep import record_reader\n"
         "from hullprod_wb.brep.loading import load_brep\n"
-        "frames = list(plain_records._frames(load_brep(%r), True, None, 0.0))\n"
+        "frames = list(record_reader._frames(load_brep(%r), True, None, 0.0))\n"
         "assert len(frames) == 3 and 'faces' in frames[0], frames[0]\n"
         "assert 'numpy' not in sys.modules, sorted(m for m in sys.modules if 'numpy' in m)[:5]\n"
         "print('ok', len(frames[0]['faces']))\n" % (ROOT, path))
@@ -248,7 +248,7 @@ def test_the_command_reads_brep_files_in_a_separate_process(tmp_path):
 
 def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatch):
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.record_reader import ReadInChild
     from hullprod_wb.brep.trimmed_domain import TrimmedDomain
     path = str(tmp_path / "trimmed.step")
     trimmed_bspline_face().exportStep(path)
@@ -266,7 +266,7 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     numbers are those of the file read here. A face whose domain needs OpenCascade is left
     to its worker."""
     from hullprod_wb.brep import backend
-    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     from hullprod_wb.brep.trimmed_domain import TrimmedDomain
     Part, _ = _part()
@@ -312,7 +312,7 @@ def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tesse
     (cubature.NodePrefetch) until L_ref arrives; the integration takes those values over:
     the same integrals, to the bit, as the file read here."""
     from hullprod_wb.brep import backend, cubature
-    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, _ = _part()
     path = str(tmp_path / "lone.step")
@@ -370,7 +370,7 @@ def test_the_command_starts_the_reading_process_before_parsing_its_arguments(tmp
 
     monkeypatch.undo()
     # the command in a fresh process (FreeCAD not loaded), counting the reading processes
-    driver = ("import sys; from hullprod_wb import cli; from hullprod_wb.brep import plain_records as p\n"
+    driver = ("import sys; from hullprod_wb import cli; from hullprod_wb.brep import record_reader as p\n"
               "init = p.ReadInChild.__init__\n"
               "def counted(self, *a, **k):\n"
               "    sys.stderr.write('reading process for %s\\n' % a[0]); init(self, *a, **k)\n"

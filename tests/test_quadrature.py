@@ -9,8 +9,9 @@ import pytest
 
 from conftest import needs_freecad, shared_hull
 from hullprod_wb.brep.cubature import GROUP_MIN_PATCHES, GROUPS, QUANTITIES, integrate, patch_groups
-from hullprod_wb.brep.trimmed_domain import (ConicArc2D, FunctionCurve2D, NurbsCurve2D,
-                                             TrimmedDomain, solve_bracketed)
+from hullprod_wb.brep.pcurves import ConicArc2D, FunctionCurve2D, NurbsCurve2D
+from hullprod_wb.brep.roots import solve_bracketed
+from hullprod_wb.brep.trimmed_domain import TrimmedDomain
 from hullprod_wb.core.errors import InputError
 
 TAU_H, TAU_K = 1e-4, 1e-3
@@ -529,7 +530,7 @@ def test_sphere_and_cylinder_faces_with_seams(fc):
 @needs_freecad
 def test_pcurve_conversion_and_occ_fallback(fc):
     from FreeCAD import Base
-    from hullprod_wb.brep.trimmed_domain import OccCurve2D, curve_from_geom2d
+    from hullprod_wb.brep.pcurves import OccCurve2D, curve_from_geom2d
     G = fc.Part.Geom2d
     ellipse = G.Ellipse2d(Base.Vector2d(2, 0), Base.Vector2d(0, 1), Base.Vector2d(0.5, 0.2))
     for geom in (ellipse, G.Circle2d(Base.Vector2d(0.5, 0.2), 1.0)):

@@ -150,7 +150,7 @@ def test_a_script_that_meshes_then_assesses_files_forks_nothing(tmp_path):
 @pytest.mark.clean_process
 def test_a_reader_from_a_fresh_interpreter_sends_what_a_forked_one_sends(tmp_path):
     from hullprod_wb.brep import face_pool
-    from hullprod_wb.brep.plain_records import ReadInChild
+    from hullprod_wb.brep.record_reader import ReadInChild
     Part, V = _part()
     path = str(tmp_path / "mixed.step")
     Part.Compound([wavy_face(), Part.makePlane(1.0, 1.0, V(0, 0, -2))]).exportStep(path)

@@ -12,7 +12,8 @@ import pytest
 
 from conftest import needs_freecad, shared_hull
 from hullprod_wb.brep.cubature import integrate
-from hullprod_wb.brep.trimmed_domain import NurbsCurve2D, TrimmedDomain
+from hullprod_wb.brep.pcurves import NurbsCurve2D
+from hullprod_wb.brep.trimmed_domain import TrimmedDomain
 from hullprod_wb.core.errors import InputError
 
 TAU_H, TAU_K = 1e-4, 1e-3
@@ -214,7 +215,7 @@ def polygon_bound(face, edge_tol):
     within its chord deflection plus the edges' tolerance (distance of p-curve image and
     3-D curve) of the p-curves' image, so the areas differ by at most that times the
     boundary length."""
-    from hullprod_wb.brep.backend import POLYGON_DEFLECTION
+    from hullprod_wb.brep.trimmed_domain import POLYGON_DEFLECTION
     deflection = POLYGON_DEFLECTION * face.BoundBox.DiagonalLength
     return (deflection + edge_tol) * wire_length(face)
 
@@ -262,7 +263,7 @@ def kvlcc2_face10(Part):
 
 @needs_freecad
 def test_catamaran_deck_is_closed_at_its_two_stern_corners(catamaran_deck):
-    from hullprod_wb.brep.backend import polygon_domain
+    from hullprod_wb.brep.trimmed_domain import polygon_domain
     face = catamaran_deck
     d = TrimmedDomain.from_face(face)
     assert len(d.repairs) == 2 and all(r.startswith("gap closed at vertex") for r in d.repairs)
@@ -280,7 +281,7 @@ def test_catamaran_deck_is_closed_at_its_two_stern_corners(catamaran_deck):
 
 @needs_freecad
 def test_kvlcc2_face10_is_closed_at_its_vertex(kvlcc2_face10):
-    from hullprod_wb.brep.backend import polygon_domain
+    from hullprod_wb.brep.trimmed_domain import polygon_domain
     from hullprod_wb.brep.face_field import FaceField
     face = kvlcc2_face10
     d = TrimmedDomain.from_face(face)

@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field
 
 from ..core.errors import InputError
 from ..core.inputs import BREP_FORMATS, MESH_FORMATS, sha256_file
+from ..core.version import __version__
 
 #: Extension of FreeCAD documents (a parametric hull, optionally with a variant table).
 DOCUMENT_FORMATS = {".fcstd": "fcstd"}
@@ -85,7 +86,6 @@ def settings_hash(settings):
 
     Two runs share a hash exactly when they would compute the same thing for the same input.
     """
-    from .. import __version__
     payload = {k: settings.get(k) for k in SETTING_KEYS}
     payload["hullprod_wb"] = __version__
     return hashlib.sha256(canonical_json(payload).encode()).hexdigest()[:16]

@@ -22,7 +22,7 @@ from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..freecad_env import set_reported_versions
-from . import plain_records, singular
+from . import occ_records, singular
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_field import FaceField
@@ -31,13 +31,14 @@ from .loading import BRepInput, load_brep
 from .left_out import EmptyDomain, LeftOutFace, evaluated_faces, left_out_face, mark_left_out
 from .provenance import occ_face_area, shape_boxes, shape_provenance
 from .patches import Patches
-from .plain_records import ReadInChild, cross_check_params, occ_reference, patch_count
+from .occ_records import cross_check_params, occ_reference, patch_count
+from .record_reader import ReadInChild
 from .recorded_shape import FaceRecord, RecordedShape
 from .budget import (BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, grown_budgets,
                      quadrature_options)
 from .cubature import GROUPS, QUANTITIES, NodePrefetch, integrate, patch_area, patch_groups
 from .metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
-from .trimmed_domain import TrimmedDomain
+from .trimmed_domain import TrimmedDomain, polygon_domain
 
 #: Tree depth and class-line halvings of a graded neighbourhood quadrant.
 QUADRANT_MAX_DEPTH = 5
@@ -45,7 +46,7 @@ QUADRANT_CLASS_DEPTH = 1
 #: Rounds of grading at knot-grid nodes where a face's refinement stalled.
 STALL_ROUNDS = 2
 #: Points per face for the pointwise cross-check against OpenCascade.
-CROSS_CHECK_POINTS = plain_records.CROSS_CHECK_POINTS
+CROSS_CHECK_POINTS = occ_records.CROSS_CHECK_POINTS
 
 
 def _final(q):
@@ -55,8 +56,8 @@ def _final(q):
 
 def cross_check_occ(ff, reference=None, n=CROSS_CHECK_POINTS):
     """Max relative differences of S_u, S_v, H, K against OpenCascade at interior points of
-    the face's parameter range (plain_records.cross_check_params); reference: OpenCascade's
-    values there (plain_records.occ_reference), computed from ff.face when not given."""
+    the face's parameter range (occ_records.cross_check_params); reference: OpenCascade's
+    values there (occ_records.occ_reference), computed from ff.face when not given."""
     if reference is None:
         reference = occ_reference(ff.face, n)
     u, v = (np.array(x) for x in cross_check_params(ff.evaluator.parameter_range, n))
@@ -190,33 +191,6 @@ def face_cross_checks(f, rule=None, seconds=0.0, reference=None):
     rec["area"] = area_cross_check(rule, f.result.values["A"])
     rec["seconds"] = seconds + time.perf_counter() - t
     return rec
-
-
-#: Deflection of the 3-D edge polygons of a fallback domain, relative to the face's size.
-POLYGON_DEFLECTION = 1e-6
-
-
-def polygon_domain(face):
-    """Fallback trimmed domain when the face's p-curves do not form closed loops: each wire
-    discretised in 3-D (deflection POLYGON_DEFLECTION of the face's size), its points
-    projected into the face's parameter space, joined by straight lines (closed by
-    construction). Exact for straight trims of planes; otherwise an approximation that the
-    validity record names."""
-    from .trimmed_domain import NurbsCurve2D
-    size = max(face.BoundBox.DiagonalLength, 1e-300)
-    surf = face.Surface
-    curves = []
-    for wire in face.Wires:
-        pts = wire.discretize(Deflection=POLYGON_DEFLECTION * size)
-        uv = np.array([surf.parameter(p) for p in pts], dtype=float)
-        if len(uv) > 1 and np.allclose(uv[0], uv[-1]):
-            uv = uv[:-1]
-        for i in range(len(uv)):
-            a, b = uv[i], uv[(i + 1) % len(uv)]
-            if np.any(a != b):
-                curves.append(NurbsCurve2D.line(a, b))
-    domain = TrimmedDomain.from_curves(curves)
-    return domain
 
 
 class _NeedsPartFace(Exception):
@@ -610,7 +584,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
     values = signature_values(integrals, ref.value)
     history = refinement_history(results, ref.value)
     validity = metric_validity(results, integrals, values, opts, history)
-    rows = face_records(results, integrals, ref.value, th.tau_H, th.tau_K)
+    rows = face_records(results, integrals, ref.value)
     if left_out:
         rows = sorted(rows + [f.record() for f in left_out], key=lambda r: r["face"])
         mark_left_out(validity, left_out, integrals.represented_area)

@@ -11,12 +11,12 @@ from ..core.fields import DistributedFields
 # with or without display fields, so that L_ref never depends on the display settings
 from .face_pool import ForkedCall
 from .lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401
-from .plain_records import DISPLAY_DEFLECTION, display_mesh  # noqa: F401
+from .occ_records import DISPLAY_DEFLECTION, display_mesh  # noqa: F401
 
 
 def face_display_mesh(mesh, field):
     """(uv (n, 2), field values at uv, triangles (m, 3)) of OpenCascade's tessellation of a
-    face, mesh = plain_records.display_mesh(face, deflection).
+    face, mesh = occ_records.display_mesh(face, deflection).
 
     FreeCAD's tessellate() reorders and merges nodes; its triangles are mapped back to the
     triangulation's (u, v) nodes by nearest 3-D position.
@@ -38,7 +38,7 @@ def sample_faces(face_fields, deflection, meshes=None):
     """Exact samples at the display nodes of every face.
 
     face_fields: list of (face number, FaceField); meshes: their display tessellations
-    (plain_records.display_mesh) when already made, else those of the fields' faces at
+    (occ_records.display_mesh) when already made, else those of the fields' faces at
     deflection. Returns dict of concatenated arrays: points (n, 3), triangles (m, 3), uv
     (n, 2), K, H, k1, k2 (n,), valid (n,) bool, face_id (n,) int (1-based), and node_area
     (n,) barycentric areas of the display triangles.

@@ -167,6 +167,18 @@ def shape_from_bytes(data):
     return shape
 
 
+def faces_to_bytes(faces):
+    """Part.Face list -> OpenCascade's binary BRep data of their compound (shape_to_bytes:
+    the faces' orientations and locations as they are)."""
+    import Part
+    return shape_to_bytes(Part.Compound(list(faces)))
+
+
+def faces_from_bytes(data):
+    """The Part.Face list faces_to_bytes wrote, in its order (FreeCAD is loaded here for it)."""
+    return list(shape_from_bytes(data).Faces)
+
+
 def shape_frames(path, fmt):
     """In a reading process (reader_process): the one frame {"shape": shape_to_bytes} of
     the file read with read_shape."""

@@ -55,7 +55,7 @@ def _quantity_total(faces, q):
     return sum(f.quad.values[q] for f in faces)
 
 
-def face_records(faces, integrals, lref, tau_H, tau_K):
+def face_records(faces, integrals, lref):
     """Per-face table: area, shares, face-level signature, status, surface type."""
     A_tot = integrals.valid_area
     K_tot = integrals.int_abs_K

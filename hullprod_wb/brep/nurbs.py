@@ -25,7 +25,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..core.errors import InputError
-from .plain_records import nurbs_record
+from .occ_records import nurbs_record
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
@@ -230,7 +230,7 @@ class NurbsSurfaceData:
 
     @classmethod
     def from_record(cls, rec):
-        """From plain_records.nurbs_record's plain data (the same numbers)."""
+        """From occ_records.nurbs_record's plain data (the same numbers)."""
         rec = dict(rec)
         poles = np.array(rec.pop("poles"), dtype=float)
         weights = rec.pop("weights")
@@ -253,17 +253,6 @@ class NurbsSurfaceData:
     def shape(self):
         """(nu, nv): number of poles in u and v."""
         return self.poles.shape[:2]
-
-    def interior_knots(self, direction):
-        """Distinct interior knots of the domain and their multiplicities, ((k,), (k,) int).
-
-        direction: 'u' or 'v'. Periodic directions also list the seam (first knot), which is
-        a knot line of the closed surface.
-        """
-        knots, mults, period = self._dir(direction)[:3]
-        if period is not None:
-            return knots[:-1].copy(), mults[:-1].copy()
-        return knots[1:-1].copy(), mults[1:-1].copy()
 
     def _dir(self, direction):
         if direction == "u":

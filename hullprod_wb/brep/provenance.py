@@ -2,10 +2,12 @@
 continuity (C0 creases) and whether the shape is a half or a full hull.
 
 Plain Python and OpenCascade only (no numpy): the process that reads a file for its plain
-records (plain_records) makes it without loading numpy.
+records (record_reader) makes it without loading numpy.
 """
 import math
 from collections import Counter
+
+from .occ_records import linspace
 
 #: Normals on the two sides of a shared edge differing by more than this are a C0 crease.
 CREASE_ANGLE_DEG = 1.0
@@ -15,7 +17,6 @@ EDGE_SAMPLES = 5
 
 def _edge_params(edge, n=EDGE_SAMPLES):
     a, b = edge.FirstParameter, edge.LastParameter
-    from .plain_records import linspace
     return [a + (b - a) * t for t in linspace(0.05, 0.95, n)]
 
 

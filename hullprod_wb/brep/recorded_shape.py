@@ -1,4 +1,4 @@
-"""A BRep file assessed from the plain records its reading process sent (plain_records).
+"""A BRep file assessed from the plain records its reading process sent (record_reader).
 
 RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput: faces
 (with OpenCascade's cross-check values), description, bounding-box size, the automatic-L_ref
@@ -44,7 +44,7 @@ class FaceRecord:
 
 
 class RecordedShape:
-    """The records of a BRep file (plain_records.ReadInChild, whose first frame has arrived):
+    """The records of a BRep file (record_reader.ReadInChild, whose first frame has arrived):
     info, units, faces [(number, FaceRecord)], size (bounding-box diagonal), read_seconds;
     lref_samples() and late() read the later frames, lref_ready() tells whether the first
     of them is there."""
@@ -64,7 +64,7 @@ class RecordedShape:
         """The faces the reading process sent as data under key ("part_faces" in the first
         frame, "described_faces" in the second), as Part.Face objects, rebuilt once."""
         if key not in self._part_faces:
-            from .plain_records import faces_from_bytes
+            from .loading import faces_from_bytes
             frame = self.reader.frame(0 if key == "part_faces" else 1)
             self._part_faces[key] = faces_from_bytes(frame[key])
         return self._part_faces[key]
@@ -80,14 +80,14 @@ class RecordedShape:
         return node_samples(frame["lref_points"], frame["lref_triangles"])
 
     def late(self, with_fields, display_deflection):
-        """dict(provenance, and with fields display (per face: plain_records.display_mesh) and
+        """dict(provenance, and with fields display (per face: occ_records.display_mesh) and
         display_deflection), from the reading process (from another one, read for them, when
         this one was started without fields)."""
         if self._late is None:
             frame = self.reader.frame(2)
             self.reader.close()
             if with_fields and "display" not in frame:
-                from .plain_records import ReadInChild
+                from .record_reader import ReadInChild
                 again = ReadInChild(self.path, self.selection, True, display_deflection)
                 try:
                     frame = again.frame(2)

@@ -19,7 +19,7 @@ from ..core.errors import InputError
 from . import differential
 from .analytic_surfaces import analytic_from_surface
 from .nurbs import NurbsSurfaceData, _as_points, grid_points, knot_breaks
-from .plain_records import orientation_sign_of, unwrap_surface  # noqa: F401 (part of this module's API)
+from .occ_records import orientation_sign_of, unwrap_surface
 
 
 def face_surface(face):
@@ -133,7 +133,7 @@ class SurfaceEvaluator:
 
     @classmethod
     def from_record(cls, rec):
-        """Evaluator of a B-spline or Bezier face from plain_records.face_record's data
+        """Evaluator of a B-spline or Bezier face from occ_records.face_record's data
         (no Part surface: surface is None), the same as for_face of that face."""
         self = cls.__new__(cls)
         self.surface = None

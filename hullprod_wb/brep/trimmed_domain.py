@@ -18,34 +18,26 @@ every vertical line in the same v order, so Omega restricted to a slab u0 < u < 
 union of strips lo_j(u) <= v <= hi_j(u), each bound by a piece (or a constant v when the
 piece is a horizontal line), which is what the quadrature integrates over.
 
-Faces read from files may need exact repairs, which TrimmedDomain.from_face makes and
-lists in ``repairs``: a wrong or missing p-curve on a plane becomes the affine image of
-the edge's 3-D curve, and loops left open at a vertex are closed by a parameter segment
-whose image stays inside that vertex's tolerance ball (a collapsed side of the surface,
-or a gap within the shape's own tolerance); otherwise the loops stay an InputError.
+Faces read from files may need exact repairs, which TrimmedDomain.from_face makes
+(trim_repair) and lists in ``repairs``; loops that no exact repair closes are an
+InputError, and the face's integration then falls back to polygon_domain, a domain of
+straight segments through the projected points of its 3-D edges.
 """
-import math
-
 import numpy as np
 
 from ..core.errors import InputError
-from .nurbs import basis_derivatives, find_spans
-from .plain_records import edge_vertices, face_pcurves, pcurve_record, xy
+from .occ_records import edge_vertices, face_pcurves
+from .pcurves import ConicArc2D, NurbsCurve2D, curve_from_geom2d, curve_from_record
+from .roots import solve_bracketed
+from .surface_eval import SurfaceEvaluator
+from .trim_repair import close_gaps, plane_frame, plane_pcurve
 
-#: Samples per polynomial span of a p-curve (bracketing of u-extrema and crossings).
-SAMPLES_PER_SPAN = 16
-#: Samples of a full turn of a circle or ellipse.
-SAMPLES_PER_TURN = 64
 #: Relative parameter tolerance below which two breakpoint values are the same.
 SNAP_RTOL = 1e-11
 #: Loops whose end points are further apart than this fraction of the domain's size are open.
 CLOSURE_RTOL = 1e-5
-#: OpenCascade's Precision::Confusion (model units): points closer than this coincide.
-PRECISION_CONFUSION = 1e-7
-#: Points of an edge at which a plane's p-curve is compared with the edge's 3-D curve.
-PLANE_CHECK_SAMPLES = 9
-#: Points of a closing parameter segment checked against its vertex's tolerance ball.
-GAP_SAMPLES = 33
+#: Deflection of the 3-D edge polygons of a fallback domain, relative to the face's size.
+POLYGON_DEFLECTION = 1e-6
 
 
 class OpenTrimLoops(InputError):
@@ -58,456 +50,6 @@ class OpenTrimLoops(InputError):
     def __init__(self, message, ends, open_ends, tolerance):
         super().__init__(message)
         self.ends, self.open_ends, self.tolerance = ends, open_ends, tolerance
-
-
-# ---------------------------------------------------------------------------------------------
-# vectorised bracketed root finding
-
-
-def solve_bracketed(fun, x0, x1, f0, f1, xtol, maxiter=100):
-    """Roots of fun in the brackets [x0, x1] with f0 * f1 <= 0, all at once, (n,) float.
-
-    fun(x, index) evaluates the function at x (m,) for the brackets index (m,) int; one
-    call per iteration for all brackets still active. Chandrupatla's method, started with a
-    regula falsi step: inverse quadratic interpolation when the last three points allow
-    it, bisection otherwise, with
-    steps at least the tolerance away from the bracket ends; a bracket ends when it is
-    narrower than about xtol (scalar or (n,)) + 4 eps |x|, at an exact zero, or at a
-    non-finite value. Returns the bracket end of smaller |f|.
-    """
-    b = np.array(x0, dtype=float, copy=True).ravel()
-    a = np.array(x1, dtype=float, copy=True).ravel()
-    fb = np.array(f0, dtype=float, copy=True).ravel()
-    fa = np.array(f1, dtype=float, copy=True).ravel()
-    c, fc = a.copy(), fa.copy()
-    n = a.size
-    xtol = np.broadcast_to(np.asarray(xtol, dtype=float), (n,))
-    # first step: regula falsi (then inverse quadratic interpolation or bisection)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.nan_to_num(fa / (fa - fb), nan=0.5)
-    tl0 = np.minimum((2.0 * np.finfo(float).eps * np.abs(a) + 0.5 * xtol)
-                     / np.maximum(np.abs(b - a), 1e-300), 0.5)
-    t = np.clip(t, tl0, 1.0 - tl0)
-    xm = np.where(np.abs(fa) < np.abs(fb), a, b)
-    active = (fa != 0.0) & (fb != 0.0)
-    for _ in range(maxiter):
-        i = np.nonzero(active)[0]
-        if i.size == 0:
-            break
-        ai, bi, fai, fbi = a[i], b[i], fa[i], fb[i]
-        xt = ai + t[i] * (bi - ai)
-        ft = np.asarray(fun(xt, i), dtype=float)
-        same = np.sign(ft) == np.sign(fai)
-        ci = np.where(same, ai, bi)
-        fci = np.where(same, fai, fbi)
-        bi = np.where(same, bi, ai)
-        fbi = np.where(same, fbi, fai)
-        ai, fai = xt, ft
-        better = np.abs(fai) < np.abs(fbi)
-        xmi = np.where(better, ai, bi)
-        fm = np.where(better, fai, fbi)
-        tol = 2.0 * np.finfo(float).eps * np.abs(xmi) + 0.5 * xtol[i]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tl = tol / np.abs(bi - ci)
-            xi = (ai - bi) / (ci - bi)
-            phi = (fai - fbi) / (fci - fbi)
-            iqi = (phi * phi < xi) & ((1.0 - phi) ** 2 < 1.0 - xi)
-            tn = (fai / (fbi - fai) * fci / (fbi - fci)
-                  + (ci - ai) / (bi - ai) * fai / (fci - fai) * fbi / (fci - fbi))
-        tn = np.where(iqi & np.isfinite(tn), tn, 0.5)
-        tl = np.minimum(np.nan_to_num(tl, nan=1.0), 0.5)
-        a[i], b[i], c[i], fa[i], fb[i], fc[i], xm[i] = ai, bi, ci, fai, fbi, fci, xmi
-        t[i] = np.clip(tn, tl, 1.0 - tl)
-        active[i[(tl >= 0.5) | (fm == 0.0) | ~np.isfinite(ft)]] = False
-    return xm
-
-
-# ---------------------------------------------------------------------------------------------
-# 2D curves in parameter space
-
-
-class Curve2D:
-    """A 2D curve C(s) = (U(s), V(s)), s in [s0, s1], evaluated on arrays.
-
-    Subclasses provide value(s) -> (n, 2) and derivative(s) -> (n, 2) (a positive multiple
-    of dC/ds is enough: only its direction and sign are used), sample_params() (k,)
-    increasing and including s0, s1, and breaks (interior parameters where C is only C^0).
-    """
-
-    s0 = 0.0
-    s1 = 1.0
-    breaks = ()
-    horizontal_v = None  # exact v of a horizontal straight curve, else None
-
-    def value(self, s):
-        raise NotImplementedError
-
-    def derivative(self, s):
-        raise NotImplementedError
-
-    def sample_params(self):
-        return np.linspace(self.s0, self.s1, 33)
-
-    #: True when value_and_derivative gives the exact dC/ds (Newton steps may use it).
-    exact_derivative = False
-
-    def value_and_derivative(self, s):
-        return self.value(s), self.derivative(s)
-
-
-class NurbsCurve2D(Curve2D):
-    """Rational B-spline curve C(s) = sum N_ip(s) w_i P_i / sum N_ip(s) w_i, s in [s0, s1].
-
-    knots: flat knot vector (len(poles) + degree + 1,); poles (n, 2); weights (n,) or None.
-    """
-
-    def __init__(self, degree, knots, poles, weights=None, s0=None, s1=None):
-        self.degree = int(degree)
-        self.knots = np.asarray(knots, dtype=float)
-        self.poles = np.asarray(poles, dtype=float).reshape(-1, 2)
-        n = len(self.poles)
-        if self.knots.size != n + self.degree + 1:
-            raise InputError("B-spline p-curve: %d knots for %d poles of degree %d"
-                             % (self.knots.size, n, self.degree))
-        self.weights = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
-        self.rational = not np.all(self.weights == self.weights[0])
-        self.s0 = float(self.knots[self.degree] if s0 is None else s0)
-        self.s1 = float(self.knots[n] if s1 is None else s1)
-        distinct, mult = np.unique(self.knots, return_counts=True)
-        inside = (distinct > self.s0) & (distinct < self.s1)
-        self.knot_values = distinct[inside]
-        self.breaks = tuple(distinct[inside & (mult >= self.degree)])
-        vs = self.poles[:, 1]
-        span_v = np.ptp(vs)
-        self.horizontal_v = float(vs[0]) if span_v <= 1e-15 * max(1.0, abs(vs[0])) else None
-
-    @classmethod
-    def line(cls, p0, p1, s0=0.0, s1=1.0):
-        """The segment from p0 to p1, affine in s on [s0, s1]."""
-        return cls(1, [s0, s0, s1, s1], [p0, p1])
-
-    def _eval(self, s):
-        s = np.asarray(s, dtype=float).ravel()
-        p = self.degree
-        span = find_spans(self.knots, p, s)
-        B = basis_derivatives(self.knots, p, span, s, order=1)
-        N, dN = B[0].T, B[1].T
-        idx = span[:, None] - p + np.arange(p + 1)[None, :]
-        w = self.weights[idx]
-        P = self.poles[idx]
-        Nw, dNw = N * w, dN * w
-        W, dW = Nw.sum(1), dNw.sum(1)
-        A = np.einsum("nk,nkd->nd", Nw, P)
-        dA = np.einsum("nk,nkd->nd", dNw, P)
-        C = A / W[:, None]
-        return C, (dA - dW[:, None] * C) / W[:, None]
-
-    def value(self, s):
-        return self._eval(s)[0]
-
-    def derivative(self, s):
-        return self._eval(s)[1]
-
-    exact_derivative = True
-
-    def value_and_derivative(self, s):
-        return self._eval(s)
-
-    def sample_params(self):
-        edges = np.concatenate(([self.s0], self.knot_values, [self.s1]))
-        k = SAMPLES_PER_SPAN if self.degree > 1 else 1
-        t = np.linspace(0.0, 1.0, k + 1)[:-1]
-        inner = (edges[:-1, None] + np.diff(edges)[:, None] * t[None, :]).ravel()
-        return np.concatenate((inner, [self.s1]))
-
-
-class ConicArc2D(Curve2D):
-    """Circle or ellipse arc C(s) = c + rx cos(s) X + ry sin(s) Y, s in [s0, s1]."""
-
-    def __init__(self, center, xaxis, yaxis, rx, ry, s0=0.0, s1=2.0 * math.pi):
-        self.center = np.asarray(center, dtype=float)
-        self.ax = float(rx) * np.asarray(xaxis, dtype=float)
-        self.ay = float(ry) * np.asarray(yaxis, dtype=float)
-        self.s0, self.s1 = float(s0), float(s1)
-
-    @classmethod
-    def circle(cls, center, radius, clockwise=False):
-        """Full circle about center, counter-clockwise in (u, v) unless clockwise."""
-        return cls(center, (1.0, 0.0), (0.0, -1.0 if clockwise else 1.0), radius, radius)
-
-    def value(self, s):
-        s = np.asarray(s, dtype=float).ravel()
-        return self.center + np.cos(s)[:, None] * self.ax + np.sin(s)[:, None] * self.ay
-
-    def derivative(self, s):
-        s = np.asarray(s, dtype=float).ravel()
-        return -np.sin(s)[:, None] * self.ax + np.cos(s)[:, None] * self.ay
-
-    exact_derivative = True
-
-    def sample_params(self):
-        k = max(8, int(math.ceil(SAMPLES_PER_TURN * abs(self.s1 - self.s0) / (2 * math.pi))))
-        return np.linspace(self.s0, self.s1, k + 1)
-
-
-class FunctionCurve2D(Curve2D):
-    """Curve given by vectorised callables value(s) -> (n, 2), derivative(s) -> (n, 2)."""
-
-    def __init__(self, value, derivative, s0, s1, n_samples=128, breaks=()):
-        self._value, self._derivative = value, derivative
-        self.s0, self.s1 = float(s0), float(s1)
-        self.n_samples = int(n_samples)
-        self.breaks = tuple(breaks)
-
-    def value(self, s):
-        s = np.asarray(s, dtype=float).ravel()
-        return np.asarray(self._value(s), dtype=float).reshape(-1, 2)
-
-    def derivative(self, s):
-        return np.asarray(self._derivative(np.asarray(s, dtype=float).ravel()),
-                          dtype=float).reshape(-1, 2)
-
-    def sample_params(self):
-        return np.linspace(self.s0, self.s1, self.n_samples + 1)
-
-
-class OccCurve2D(Curve2D):
-    """Any Geom2d curve, evaluated point by point by OpenCascade (exact, slow fallback).
-
-    derivative() returns the unit tangent (a positive multiple of dC/ds).
-    """
-
-    def __init__(self, geom2d, s0, s1, n_samples=256):
-        self.geom = geom2d
-        self.s0, self.s1 = float(s0), float(s1)
-        self.n_samples = n_samples
-
-    @staticmethod
-    def _points(method, s):
-        return np.array([xy(method(float(x))) for x in np.asarray(s, dtype=float).ravel()],
-                        dtype=float).reshape(-1, 2)
-
-    def value(self, s):
-        return self._points(self.geom.value, s)
-
-    def derivative(self, s):
-        return self._points(self.geom.tangent, s)
-
-    def sample_params(self):
-        return np.linspace(self.s0, self.s1, self.n_samples + 1)
-
-
-def curve_from_record(rec):
-    """Exact numpy evaluator of a p-curve from plain_records.pcurve_record's data: a line as
-    a degree-1 B-spline (Line2d is affine in its parameter), a circle or ellipse as a
-    :class:`ConicArc2D`, a B-spline or Bezier curve as a :class:`NurbsCurve2D`; None when the
-    conversion does not reproduce OpenCascade's points (the record's check samples) to 1e-12
-    of the curve's size."""
-    s0, s1 = rec["s0"], rec["s1"]
-    kind = rec["kind"]
-    if kind == "line":
-        curve = NurbsCurve2D.line(rec["p0"], rec["p1"], s0, s1)
-    elif kind == "conic":
-        curve = ConicArc2D(rec["center"], rec["xaxis"], rec["yaxis"], rec["rx"], rec["ry"], s0, s1)
-    elif kind == "nurbs":
-        curve = NurbsCurve2D(rec["degree"], rec["knots"], rec["poles"], rec["weights"], s0, s1)
-    else:
-        return None
-    s = np.array(rec["check_s"], dtype=float)
-    ref = np.array(rec["check_uv"], dtype=float)
-    size = max(1.0, float(np.abs(ref).max()))
-    if np.abs(curve.value(s) - ref).max() > 1e-12 * size:
-        return None
-    return curve
-
-
-def curve_from_geom2d(geom, s0, s1):
-    """Exact numpy evaluator of a FreeCAD Geom2d curve on [s0, s1]: curve_from_record of its
-    plain_records.pcurve_record (a periodic B-spline unperiodised on a copy, which keeps its
-    parameterisation); any other type, or a conversion that fails its check, falls back to
-    :class:`OccCurve2D`."""
-    rec = pcurve_record(geom, s0, s1)
-    curve = None if rec is None else curve_from_record(rec)
-    return curve if curve is not None else OccCurve2D(geom, float(s0), float(s1))
-
-
-# ---------------------------------------------------------------------------------------------
-# exact repairs of faces read from files (used by TrimmedDomain.from_face)
-
-
-def _xyz(p):
-    return (float(p.x), float(p.y), float(p.z))
-
-
-def plane_frame(face):
-    """(O, X, Y) (3,) float each when the face's surface is a plane S(u, v) = O + u X + v Y
-    (X, Y orthonormal), else None. Read from S itself: O = S(0, 0), X = S(1, 0) - O,
-    Y = S(0, 1) - O (exact, S is affine)."""
-    surface = face.Surface
-    while type(surface).__name__ == "RectangularTrimmedSurface":
-        surface = surface.BasisSurface
-    if type(surface).__name__ != "Plane":
-        return None
-    o, x, y = (np.array(_xyz(surface.value(u, v))) for u, v in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0)))
-    return o, x - o, y - o
-
-
-def plane_image(edge, frame):
-    """Exact p-curve of a 3-D edge lying in the plane ``frame`` = (O, X, Y).
-
-    The map x -> ((x - O).X, (x - O).Y) is affine and inverts S on the plane, so the image of
-    a line is the segment between the images of its ends, of a circle or ellipse
-    c + a cos s + b sin s the conic with the images of c, a, b, and of a (rational)
-    B-spline or Bezier curve the curve with the images of its poles (same knots and
-    weights: NURBS are affine invariant). Other curves, or an image that does not
-    reproduce the edge's points to 1e-12 of its size, are mapped point by point
-    (:class:`FunctionCurve2D` of Edge.valueAt). Parameter: the edge's own.
-    """
-    o, X, Y = frame
-    L = np.array([X, Y])  # (2, 3)
-
-    def image(points):  # (n, 3) -> (n, 2)
-        return (np.asarray(points, dtype=float).reshape(-1, 3) - o) @ L.T
-
-    s0, s1 = (float(x) for x in edge.ParameterRange)
-    geom = edge.Curve
-    while type(geom).__name__ == "TrimmedCurve":
-        geom = geom.BasisCurve
-    kind = type(geom).__name__
-    curve = None
-    if kind in ("Line", "LineSegment"):
-        ends = image([_xyz(edge.valueAt(s0)), _xyz(edge.valueAt(s1))])
-        curve = NurbsCurve2D.line(ends[0], ends[1], s0, s1)
-    elif kind in ("Circle", "Ellipse"):
-        rx, ry = ((geom.Radius, geom.Radius) if kind == "Circle"
-                  else (geom.MajorRadius, geom.MinorRadius))
-        curve = ConicArc2D(image([_xyz(geom.Center)])[0], L @ np.array(_xyz(geom.XAxis)),
-                           L @ np.array(_xyz(geom.YAxis)), rx, ry, s0, s1)
-    elif kind in ("BSplineCurve", "BezierCurve"):
-        g = geom.copy()
-        if kind == "BSplineCurve" and g.isPeriodic():
-            g.setNotPeriodic()
-        poles = image([_xyz(q) for q in g.getPoles()])
-        knots = (list(g.KnotSequence) if kind == "BSplineCurve"
-                 else [0.0] * (g.Degree + 1) + [1.0] * (g.Degree + 1))
-        curve = NurbsCurve2D(g.Degree, knots, poles, list(g.getWeights()), s0, s1)
-    s = np.linspace(s0, s1, 5)
-    ref = image([_xyz(edge.valueAt(float(x))) for x in s])
-    size = max(1.0, float(np.abs(ref).max()))
-    if curve is None or np.abs(curve.value(s) - ref).max() > 1e-12 * size:
-        def value(t):
-            return image([_xyz(edge.valueAt(float(x))) for x in t])
-
-        def derivative(t):
-            return np.array([_xyz(edge.derivative1At(float(x))) for x in t]).reshape(-1, 3) @ L.T
-        curve = FunctionCurve2D(value, derivative, s0, s1)
-    return curve
-
-
-def plane_pcurve(edge, pcurve, frame):
-    """The p-curve of an edge of a planar face, checked against the edge's 3-D curve.
-
-    pcurve: face.curveOnSurface(edge) ((geom2d, s0, s1) or None). Returns (curve, note):
-    the stored p-curve and None when S(p-curve) stays within the edge's tolerance of the
-    3-D curve at PLANE_CHECK_SAMPLES parameters; otherwise, when the 3-D curve lies in the
-    plane within that tolerance, its exact image (:func:`plane_image`) and a note. A
-    missing p-curve whose edge leaves the plane raises InputError; a wrong one is kept.
-    """
-    stored = None if pcurve is None else curve_from_geom2d(*pcurve)
-    if edge.Degenerated:
-        if stored is None:
-            raise InputError("degenerated edge without a p-curve on a plane")
-        return stored, None
-    o, X, Y = frame
-    tol = max(float(edge.Tolerance), PRECISION_CONFUSION)
-    s0, s1 = (float(x) for x in edge.ParameterRange)
-    try:
-        pts = np.array([_xyz(edge.valueAt(float(x)))
-                        for x in np.linspace(s0, s1, PLANE_CHECK_SAMPLES)])
-        kind = type(edge.Curve).__name__
-    except Exception:  # OCC raises its own types: no 3-D curve to compare with
-        if stored is None:
-            raise InputError("face edge has neither a p-curve nor a 3-D curve") from None
-        return stored, None
-    deviation = np.inf
-    if stored is not None:
-        uv = stored.value(np.linspace(stored.s0, stored.s1, PLANE_CHECK_SAMPLES))
-        on_plane = o + uv[:, :1] * X + uv[:, 1:] * Y
-        deviation = float(np.linalg.norm(on_plane - pts, axis=1).max())
-        if deviation <= tol:
-            return stored, None
-    normal = np.cross(X, Y)
-    off_plane = float(np.abs((pts - o) @ normal).max())
-    if off_plane > tol:
-        if stored is None:
-            raise InputError("face edge has no p-curve and its 3-D curve leaves the face's plane "
-                             "by %.3g (tolerance %.3g)" % (off_plane, tol))
-        return stored, None
-    what = ("missing p-curve" if stored is None else
-            "p-curve %.3g off its 3-D curve (tolerance %.3g)" % (deviation, tol))
-    return plane_image(edge, frame), "plane: %s replaced by the image of the 3-D %s" % (
-        what, kind)
-
-
-def close_gaps(evaluator, end_vertices, vertices, error):
-    """Straight parameter segments closing the trim loops at their open ends, exactly.
-
-    evaluator: the face's SurfaceEvaluator; end_vertices: per p-curve the indices into
-    vertices of the topological vertices at its start and end (plain_records.edge_vertices);
-    vertices: (point (x, y, z), tolerance) of each; error: the :class:`OpenTrimLoops` of the
-    p-curves. The open ends are grouped by the topological vertex of their edge (the edge's
-    first vertex for a p-curve's start, its last for its end) and paired, nearest first,
-    within a vertex. The segment from end p to end q is accepted when its image
-    g(t) = S(p + t (q - p)) stays in the vertex's tolerance ball: max |g(t_i) - V| over
-    GAP_SAMPLES points plus the chord bound h^2/8 max |g''| (h the sample spacing) is at
-    most the vertex tolerance. Exactness: a BRep vertex is the ball |x - V| <= tol_V, and
-    the two edges meet there by the shape's own topology; the segment adds no boundary
-    outside that ball, so the closed domain is the face the BRep defines, ambiguous only
-    inside the ball (area at most about pi tol_V^2 per gap). On a collapsed side of the
-    surface (S constant along the segment: a pole, a cone apex) g is the vertex point itself.
-    Returns (segments, notes); raises InputError (the error's message and the reason)
-    when some open end has no such closure.
-    """
-    def fail(reason):
-        raise InputError("%s; no exact closure: %s" % (error, reason)) from error
-
-    ends = error.ends
-    groups = {}  # vertex index -> [end indices], in order of first appearance
-    for i in (int(k) for k in error.open_ends):
-        groups.setdefault(end_vertices[i // 2][i % 2], []).append(i)
-    segments, notes = [], []
-    t = np.linspace(0.0, 1.0, GAP_SAMPLES)
-    h = t[1] - t[0]
-    for vid, idx in groups.items():
-        point, vertex_tol = vertices[vid]
-        V = np.array(point, dtype=float)
-        tol = max(float(vertex_tol), PRECISION_CONFUSION)
-        if len(idx) % 2:
-            fail("%d open p-curve end(s) at the vertex (%.6g, %.6g, %.6g), none of another "
-                 "edge there to join" % ((len(idx),) + tuple(V)))
-        idx = list(idx)
-        while idx:
-            pairs = [(float(np.linalg.norm(ends[a] - ends[b])), a, b)
-                     for j, a in enumerate(idx) for b in idx[j + 1:]]
-            _, a, b = min(pairs)
-            idx.remove(a), idx.remove(b)
-            p, q = ends[a], ends[b]
-            d = q - p
-            uv = p + t[:, None] * d
-            S, _, _, Suu, Suv, Svv = evaluator.derivatives(uv[:, 0], uv[:, 1])
-            g2 = d[0] ** 2 * Suu + 2.0 * d[0] * d[1] * Suv + d[1] ** 2 * Svv
-            dev = float(np.linalg.norm(S - V, axis=1).max())
-            bound = dev + h * h / 8.0 * float(np.linalg.norm(g2, axis=1).max())
-            if not bound <= tol:
-                fail("the parameter segment from (%.6g, %.6g) to (%.6g, %.6g) leaves the vertex "
-                     "(%.6g, %.6g, %.6g) by %.3g, more than its tolerance %.3g"
-                     % (tuple(p) + tuple(q) + tuple(V) + (bound, tol)))
-            segments.append(NurbsCurve2D.line(p, q))
-            kind = "collapsed side" if bound <= PRECISION_CONFUSION else "gap"
-            notes.append("%s closed at vertex (%.6g, %.6g, %.6g): parameter segment (%.6g, %.6g)-"
-                         "(%.6g, %.6g), 3-D deviation %.3g <= vertex tolerance %.3g"
-                         % ((kind,) + tuple(V) + tuple(p) + tuple(q) + (bound, tol)))
-    return segments, notes
 
 
 #: Newton steps of the inversion u(s) = u of a monotone piece before bisection takes over.
@@ -555,10 +97,6 @@ def _invert_monotone(curve, u, a, b, fa, fb, xtol):
         ui = u[i]
         x[i] = solve_bracketed(lambda y, k: curve.value(y)[:, 0] - ui[k], a[i], b[i], fa[i], fb[i], xtol)
     return x
-
-
-# ---------------------------------------------------------------------------------------------
-# the domain
 
 
 class TrimmedDomain:
@@ -640,7 +178,6 @@ class TrimmedDomain:
         try:
             domain = cls(curves, repairs)
         except OpenTrimLoops as exc:
-            from .surface_eval import SurfaceEvaluator
             segments, notes = close_gaps(SurfaceEvaluator.for_face(face), *edge_vertices(edges), exc)
             domain = cls(curves + segments, repairs + notes)
         domain.face_parameter_range = tuple(face.ParameterRange)
@@ -648,7 +185,7 @@ class TrimmedDomain:
 
     @classmethod
     def from_record(cls, rec, evaluator):
-        """Domain of a face from plain_records.face_record's p-curves and edge vertices, the
+        """Domain of a face from occ_records.face_record's p-curves and edge vertices, the
         same as from_face gives for that face (evaluator: its SurfaceEvaluator, for closing
         loop gaps); None when a p-curve's conversion fails its check (from_face then
         evaluates it through OpenCascade)."""
@@ -857,3 +394,24 @@ class TrimmedDomain:
                                     g[j, m], g[j + 1, m], xtol)
                 out.append(c.value(r)[:, 0])
         return np.unique(np.concatenate(out)) if out else np.empty(0)
+
+
+def polygon_domain(face):
+    """Fallback trimmed domain when the face's p-curves do not form closed loops: each wire
+    discretised in 3-D (deflection POLYGON_DEFLECTION of the face's size), its points
+    projected into the face's parameter space, joined by straight lines (closed by
+    construction). Exact for straight trims of planes; otherwise an approximation that the
+    validity record names."""
+    size = max(face.BoundBox.DiagonalLength, 1e-300)
+    surf = face.Surface
+    curves = []
+    for wire in face.Wires:
+        pts = wire.discretize(Deflection=POLYGON_DEFLECTION * size)
+        uv = np.array([surf.parameter(p) for p in pts], dtype=float)
+        if len(uv) > 1 and np.allclose(uv[0], uv[-1]):
+            uv = uv[:-1]
+        for i in range(len(uv)):
+            a, b = uv[i], uv[(i + 1) % len(uv)]
+            if np.any(a != b):
+                curves.append(NurbsCurve2D.line(a, b))
+    return TrimmedDomain.from_curves(curves)

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from . import writers
 from .constants import CLASS_METRICS, CLASS_NAMES, METRIC_LABELS, METRICS, SCHEMA_VERSION
 from .validity import STATUS_MEANING
+from .version import __version__
 
 
 def dist_version(name):
@@ -33,7 +34,6 @@ def software_versions(with_freecad=True):
     """Versions of this package and of what it computes with (None where absent; FreeCAD
     and OCC None without with_freecad unless FreeCAD is loaded: a mesh does not use it)."""
     import numpy
-    from .. import __version__
     from ..freecad_env import versions
     out = {"package": "hullprod_wb", "version": __version__, "python": platform.python_version(),
            "numpy": numpy.__version__, "scipy": dist_version("scipy"), "trimesh": dist_version("trimesh")}

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..cell_interpolant import (SegmentField, _local, horner, interpolant_extremum, interpolant_range,
                                 level_intersections, tangency_points, window_min_of)
-from ..trimmed_domain import solve_bracketed
+from ..roots import solve_bracketed
 from .cells import _row_sums
 from .pieces import _inside_pieces, _parabolic_min
 from .settings import INSIDE, LEVEL_ROW, TANGENT_RTOL, TANGENT_STEPS

@@ -43,7 +43,7 @@ from ...core.thresholds import classify
 from ..cell_interpolant import SegmentField, cell_values, fit_interpolants
 from ..gauss_rules import WK, XK, kronrod_error, legendre_vander
 from ..patches import cluster_map
-from ..trimmed_domain import solve_bracketed
+from ..roots import solve_bracketed
 from .cells import _greedy_accept, _row_sums
 from .pieces import Interpolants, MixedCells, Pieces, _count_and_pairs, _halve_pieces, _parabolic_min, _segments, _split_pieces
 from .settings import (CROSSING_RTOL, CROSSING_STEPS, DIP_FRACTION, INTERPOLANT_SHARE, LEVEL_ROW, MAX_PIECES,

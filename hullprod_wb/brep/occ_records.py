@@ -1,30 +1,14 @@
-"""Plain-data records of a BRep file read by OpenCascade, made in a child process.
+"""OpenCascade's geometry of a face as plain numbers: lists, tuples and arrays of doubles.
 
-A BRep file's assessment needs OpenCascade only to read the geometry: its B-spline and
-Bezier faces are integrated from poles, knots and weights, their trimmed domains from the
-p-curves' data. So a child (reader_process: forked from a clean process, else a fresh
-interpreter) reads the file with FreeCAD, turns every face into plain numbers (lists,
-tuples, arrays of doubles: see face_record), makes the tessellations and the OpenCascade
-values the records need, and sends them to the parent through a pipe, while the parent
-loads numpy and the numerical modules. A face this module does not describe (another
-surface type, a planar face, a p-curve of another type or none) travels as OpenCascade's
-binary BRep data (faces_to_bytes) and is rebuilt in the process that integrates it, which
-then loads FreeCAD (recorded_shape); either way the fields and domains are built from the
-same numbers as from the faces read in that process.
-
-The child sends three frames: the face records (with OpenCascade's values at the
-cross-check points and the edges' vertices, and the faces sent as data) and the file's
-description; the nodes of the automatic-L_ref tessellation (and the described faces as
-data too, for a trimmed domain that needs OpenCascade); then, at the lowest priority, what
-is only needed at the end (provenance with OpenCascade's face areas, the display
-tessellation). The records come first, so that the parent sets the faces up while the
-tessellation runs (ReadInChild.ready tells it whether the next frame is there). A child
-that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied.
+A B-spline or Bezier face is integrated from its poles, knots and weights and its trimmed
+domain from its p-curves' data, so face_record describes the face by those numbers
+(nurbs_record, pcurve_record, edge_vertices) with OpenCascade's own values at the
+cross-check points (occ_reference); display_mesh gives OpenCascade's display tessellation
+as flat arrays. The numerical modules build their evaluators from these records, and the
+reading process (record_reader) sends them to the process that integrates.
 
 Nothing here imports numpy: the reading side never loads it.
 """
-import os
-import time
 from array import array
 
 #: Cross-check points per face (backend.cross_check_occ compares at the same points).
@@ -105,7 +89,7 @@ def nurbs_record(surface):
 
 def pcurve_record(geom, s0, s1):
     """Plain description of a Geom2d curve on [s0, s1] (kind "line", "conic" or "nurbs",
-    see trimmed_domain.curve_from_record) with OpenCascade's points at PCURVE_CHECK_SAMPLES
+    see pcurves.curve_from_record) with OpenCascade's points at PCURVE_CHECK_SAMPLES
     parameters to check the conversion against; None for other curve types."""
     kind = type(geom).__name__
     s0, s1 = float(s0), float(s1)
@@ -237,105 +221,6 @@ def face_record(face):
             "end_vertices": end_vertices, "vertices": vertices}, None
 
 
-# -- the child -------------------------------------------------------------------------------
-
-
-def part_record(face, why):
-    """The record of a face sent as OpenCascade's own data (faces_to_bytes) instead of plain
-    numbers (another surface type, a planar face, a p-curve of another type or none, or a
-    face face_record could not describe): surface_type, kind "part", reason, patch_count and
-    occ_reference; the face itself travels in the frame's part_faces."""
-    try:
-        surface_type = type(face.Surface).__name__
-    except Exception:  # no surface OpenCascade can give: the parent's set-up says so
-        surface_type = "unknown"
-    try:
-        reference = occ_reference(face)
-    except Exception:  # no parameter range: nothing to compare
-        reference = [None] * CROSS_CHECK_POINTS
-    return {"surface_type": surface_type, "kind": "part", "reason": why, "patch_count": patch_count(face),
-            "occ_reference": reference}
-
-
-def faces_to_bytes(faces):
-    """Part.Face list -> OpenCascade's binary BRep data of their compound (loading.
-    shape_to_bytes: the faces' orientations and locations as they are)."""
-    import Part
-    from .loading import shape_to_bytes
-    return shape_to_bytes(Part.Compound(list(faces)))
-
-
-def faces_from_bytes(data):
-    """The Part.Face list faces_to_bytes wrote, in its order (FreeCAD is loaded here for it)."""
-    from .loading import shape_from_bytes
-    return list(shape_from_bytes(data).Faces)
-
-
-def record_frames(path, faces, with_fields, display_deflection):
-    """In the reading process (reader_process): read path with FreeCAD and yield the three
-    frames of its records (see the module doc)."""
-    from ..freecad_env import import_freecad
-    from .loading import load_brep
-    from .reader_process import STAGE
-    import_freecad()
-    t = time.perf_counter()
-    inp = load_brep(path, faces, here=True)
-    seconds = time.perf_counter() - t
-    yield {STAGE: "describing the faces"}
-    for frame in _frames(inp, with_fields, display_deflection, seconds):
-        yield frame
-
-
-def _frames(inp, with_fields, display_deflection, read_seconds):
-    """The three frames of the records of a loaded BRepInput (see the module doc), each
-    with what comes after it (reader_process.STAGE)."""
-    from ..freecad_env import versions
-    from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
-    from .provenance import shape_boxes
-    from .reader_process import STAGE
-    boxes = shape_boxes(inp.shape, inp.faces)  # before any tessellation, as when read here
-    size = float(boxes[0].DiagonalLength)
-    faces, as_data, described = [], [], []
-    for number, face in inp.faces:
-        try:
-            rec, why = face_record(face)
-        except Exception as exc:  # OpenCascade cannot give what the record needs: the face as data
-            rec, why = None, "an OpenCascade error (%s)" % " ".join(str(exc).split())
-        if rec is None:
-            rec = part_record(face, why)
-            rec["part"] = len(as_data)
-            as_data.append(face)
-        else:
-            rec["part"] = len(described)
-            described.append(face)
-        rec["number"] = number
-        faces.append(rec)
-    # the records first: the parent sets the faces up while the tessellation runs here
-    yield {"info": inp.info, "units": inp.units, "faces": faces, "size": size, "versions": versions(),
-           "read_seconds": read_seconds, "part_faces": faces_to_bytes(as_data) if as_data else None,
-           STAGE: "tessellating the faces"}
-    t = time.perf_counter()
-    pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
-    # with the described faces as data too, for a trimmed domain that needs OpenCascade
-    # (recorded_shape.FaceRecord.part_face): here before any worker process starts
-    yield {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t,
-           "described_faces": faces_to_bytes(described) if described else None,
-           STAGE: "computing the faces' areas and display tessellation"}
-    # the rest is needed only at the end: give the CPUs to the integration meanwhile
-    try:
-        os.nice(19)
-    except OSError:
-        pass
-    from .provenance import shape_provenance
-    late = {}
-    if with_fields:
-        deflection = display_deflection or DISPLAY_DEFLECTION * size
-        late["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
-        late["display_deflection"] = deflection
-    late["provenance"] = shape_provenance(inp.shape, inp.faces, None, boxes)
-    yield late
-
-
 def display_mesh(face, deflection):
     """OpenCascade's display tessellation of face: its nodes (flat x, y, z doubles), its
     triangles (flat indices) and the (u, v) nodes of its triangulation (flat u, v); all
@@ -351,48 +236,3 @@ def display_mesh(face, deflection):
     for q in face.getUVNodes():
         uv.extend((float(q[0]), float(q[1])))
     return p, t, uv
-
-
-def reads_in_child(jobs=None):
-    """Whether a BRep file named by its path is read by a ReadInChild (api.assess;
-    cli.early_reading starts it earlier): always, whatever jobs (kept for callers that ask)."""
-    return True
-
-
-class ReadInChild:
-    """The records of a BRep file, read by a child started now (reader_process: forked from
-    a clean process, else a fresh interpreter; see the module doc).
-
-    frame(k) returns frame k (0: faces, 1: L_ref tessellation, 2: the rest) as the child
-    sent it. An InputError of the child (an unreadable file, a bad face number) is raised
-    here with its message; a child that ends before sending frame k raises ReaderDied (an
-    InputError) naming the file and what OpenCascade was doing.
-    """
-
-    FRAMES = 3
-
-    def __init__(self, path, faces=None, with_fields=True, display_deflection=None):
-        from .reader_process import ReaderProcess
-        self.path, self.faces = path, faces
-        self.with_fields, self.display_deflection = with_fields, display_deflection
-        self._frames = []
-        self._child = ReaderProcess(path, (__name__, "record_frames"),
-                                    (path, faces, with_fields, display_deflection))
-
-    def ready(self, k):
-        """Whether frame(k) would return without waiting for the child (or the child has
-        ended): frame k has arrived, or the next frame has begun to arrive."""
-        if len(self._frames) > k:
-            return True
-        if len(self._frames) < k:
-            return False
-        return self._child.ready()
-
-    def frame(self, k):
-        while len(self._frames) <= k:
-            self._frames.append(self._child.receive(last=len(self._frames) == self.FRAMES - 1))
-        return self._frames[k]
-
-    def close(self):
-        """Stop (if still running) and reap the child."""
-        self._child.close()

@@ -1,0 +1,146 @@
+"""The plain records of a BRep file (occ_records), made by OpenCascade in a child process.
+
+A BRep file's assessment needs OpenCascade only to read the geometry. So a child
+(reader_process: forked from a clean process, else a fresh interpreter) reads the file with
+FreeCAD, turns every face into plain numbers (occ_records.face_record), makes the
+tessellations and the OpenCascade values the records need, and sends them to the parent
+through a pipe, while the parent loads numpy and the numerical modules. A face that
+occ_records does not describe (another surface type, a planar face, a p-curve of another
+type or none) travels as OpenCascade's binary BRep data (loading.faces_to_bytes) and is
+rebuilt in the process that integrates it, which then loads FreeCAD (recorded_shape);
+either way the fields and domains are built from the same numbers as from the faces read
+in that process.
+
+The child sends three frames: the face records (with OpenCascade's values at the
+cross-check points and the edges' vertices, and the faces sent as data) and the file's
+description; the nodes of the automatic-L_ref tessellation (and the described faces as
+data too, for a trimmed domain that needs OpenCascade); then, at the lowest priority, what
+is only needed at the end (provenance with OpenCascade's face areas, the display
+tessellation). The records come first, so that the parent sets the faces up while the
+tessellation runs (ReadInChild.ready tells it whether the next frame is there). A child
+that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied.
+
+Nothing here imports numpy: the reading side never loads it.
+"""
+import os
+import time
+
+from ..freecad_env import import_freecad, versions
+from .loading import faces_to_bytes, load_brep
+from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
+from .occ_records import CROSS_CHECK_POINTS, DISPLAY_DEFLECTION, display_mesh, face_record, occ_reference, \
+    patch_count
+from .provenance import shape_boxes, shape_provenance
+from .reader_process import STAGE, ReaderProcess
+
+
+def part_record(face, why):
+    """The record of a face sent as OpenCascade's own data (loading.faces_to_bytes) instead
+    of plain numbers (another surface type, a planar face, a p-curve of another type or
+    none, or a face face_record could not describe): surface_type, kind "part", reason,
+    patch_count and occ_reference; the face itself travels in the frame's part_faces."""
+    try:
+        surface_type = type(face.Surface).__name__
+    except Exception:  # no surface OpenCascade can give: the parent's set-up says so
+        surface_type = "unknown"
+    try:
+        reference = occ_reference(face)
+    except Exception:  # no parameter range: nothing to compare
+        reference = [None] * CROSS_CHECK_POINTS
+    return {"surface_type": surface_type, "kind": "part", "reason": why, "patch_count": patch_count(face),
+            "occ_reference": reference}
+
+
+def record_frames(path, faces, with_fields, display_deflection):
+    """In the reading process (reader_process): read path with FreeCAD and yield the three
+    frames of its records (see the module doc)."""
+    import_freecad()
+    t = time.perf_counter()
+    inp = load_brep(path, faces, here=True)
+    seconds = time.perf_counter() - t
+    yield {STAGE: "describing the faces"}
+    for frame in _frames(inp, with_fields, display_deflection, seconds):
+        yield frame
+
+
+def _frames(inp, with_fields, display_deflection, read_seconds):
+    """The three frames of the records of a loaded BRepInput (see the module doc), each
+    with what comes after it (reader_process.STAGE)."""
+    boxes = shape_boxes(inp.shape, inp.faces)  # before any tessellation, as when read here
+    size = float(boxes[0].DiagonalLength)
+    faces, as_data, described = [], [], []
+    for number, face in inp.faces:
+        try:
+            rec, why = face_record(face)
+        except Exception as exc:  # OpenCascade cannot give what the record needs: the face as data
+            rec, why = None, "an OpenCascade error (%s)" % " ".join(str(exc).split())
+        if rec is None:
+            rec = part_record(face, why)
+            rec["part"] = len(as_data)
+            as_data.append(face)
+        else:
+            rec["part"] = len(described)
+            described.append(face)
+        rec["number"] = number
+        faces.append(rec)
+    # the records first: the parent sets the faces up while the tessellation runs here
+    yield {"info": inp.info, "units": inp.units, "faces": faces, "size": size, "versions": versions(),
+           "read_seconds": read_seconds, "part_faces": faces_to_bytes(as_data) if as_data else None,
+           STAGE: "tessellating the faces"}
+    t = time.perf_counter()
+    pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
+    # with the described faces as data too, for a trimmed domain that needs OpenCascade
+    # (recorded_shape.FaceRecord.part_face): here before any worker process starts
+    yield {"lref_points": pts, "lref_triangles": tris, "seconds": time.perf_counter() - t,
+           "described_faces": faces_to_bytes(described) if described else None,
+           STAGE: "computing the faces' areas and display tessellation"}
+    # the rest is needed only at the end: give the CPUs to the integration meanwhile
+    try:
+        os.nice(19)
+    except OSError:
+        pass
+    late = {}
+    if with_fields:
+        deflection = display_deflection or DISPLAY_DEFLECTION * size
+        late["display"] = [display_mesh(f, deflection) for _, f in inp.faces]
+        late["display_deflection"] = deflection
+    late["provenance"] = shape_provenance(inp.shape, inp.faces, None, boxes)
+    yield late
+
+
+class ReadInChild:
+    """The records of a BRep file, read by a child started now (reader_process: forked from
+    a clean process, else a fresh interpreter; see the module doc).
+
+    frame(k) returns frame k (0: faces, 1: L_ref tessellation, 2: the rest) as the child
+    sent it. An InputError of the child (an unreadable file, a bad face number) is raised
+    here with its message; a child that ends before sending frame k raises ReaderDied (an
+    InputError) naming the file and what OpenCascade was doing.
+    """
+
+    FRAMES = 3
+
+    def __init__(self, path, faces=None, with_fields=True, display_deflection=None):
+        self.path, self.faces = path, faces
+        self.with_fields, self.display_deflection = with_fields, display_deflection
+        self._frames = []
+        self._child = ReaderProcess(path, (__name__, "record_frames"),
+                                    (path, faces, with_fields, display_deflection))
+
+    def ready(self, k):
+        """Whether frame(k) would return without waiting for the child (or the child has
+        ended): frame k has arrived, or the next frame has begun to arrive."""
+        if len(self._frames) > k:
+            return True
+        if len(self._frames) < k:
+            return False
+        return self._child.ready()
+
+    def frame(self, k):
+        while len(self._frames) <= k:
+            self._frames.append(self._child.receive(last=len(self._frames) == self.FRAMES - 1))
+        return self._frames[k]
+
+    def close(self):
+        """Stop (if still running) and reap the child."""
+        self._child.close()
