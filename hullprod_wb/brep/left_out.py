@@ -67,7 +67,8 @@ def left_out_face(number, face, exc, setup=None):
         return LeftOutFace(number, "its trimmed domain has no extent (%s): a face of zero area" % exc,
                            0.0, "trimmed domain without extent", surface_type or "no surface")
     reason = _one_line(exc)
-    from .backend import FaceSetup, area_rule
+    from .cross_checks import area_rule
+    from .face_setup import FaceSetup
     try:
         s = setup or FaceSetup(face)
         area = float(area_rule(s.ff, s.domain, s.gu, s.gv)[0])

@@ -61,7 +61,7 @@ def face_records(faces, integrals, lref, tau_H, tau_K):
     K_tot = integrals.int_abs_K
     rows = []
     for f in faces:
-        r = f.result
+        r = f.quad
         ig = r.integrals()
         vals = signature_values(ig, lref)
         verdicts = [a["verdict"] for a in f.audits]
@@ -122,7 +122,7 @@ def metric_validity(faces, integrals, values, opts, history):
             den == "A_classified" or global_converged(faces, den, rtol))
         if den == "A_classified":
             conv = conv and all(global_converged(faces, c, rtol) for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
-        evidence = {"error_estimate": sum(f.result.errors.get(num, 0.0) for f in faces),
+        evidence = {"error_estimate": sum(f.quad.errors.get(num, 0.0) for f in faces),
                     "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
                     "points": int(sum(f.quad.n_points for f in faces))}
         evidence["tolerance"] = global_tolerance(faces, num, rtol)
@@ -228,7 +228,7 @@ def _stable(history):
 
 def refinement_history(faces, lref):
     """Global I_D, I_D+, I_D- after each quadtree level (summed over faces), when recorded."""
-    per_face = [getattr(f.result, "history", None) for f in faces]
+    per_face = [getattr(f.quad, "history", None) for f in faces]
     if not per_face or any(h is None for h in per_face):
         return []
     depth = max(len(h) for h in per_face)
