@@ -77,7 +77,6 @@ class _NeedsPartFace(Exception):
     """A recorded face whose trimmed domain needs the Part face (FaceSetup(part_face=False))."""
 
 
-
 @dataclass
 class BrepRun:
     """One BRep assessment on its way through its stages (assess_brep).
@@ -122,8 +121,8 @@ class BrepRun:
     done_weight: float = 0.0  # weight and number of the faces finished
     done_count: int = 0
 
-    @classmethod
-    def read(cls, source, faces, opts, progress, started, **choices):
+    @staticmethod
+    def read(source, faces, opts, progress, started, **choices):
         """Stage 1: the shape, from the records of its reading process (a ReadInChild source,
         every face as records or OpenCascade's data: RecordedRun) or loaded here (LoadedRun;
         a BRepInput source's face selection stands), timed as read_s."""
