@@ -266,6 +266,7 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     numbers are those of the file read here. A face whose domain needs OpenCascade is left
     to its worker."""
     from hullprod_wb.brep import backend
+    from hullprod_wb.brep.face_setup import FaceSetup
     from hullprod_wb.brep.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     from hullprod_wb.brep.trimmed_domain import TrimmedDomain
@@ -281,14 +282,14 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     reader.close()
 
     made = []
-    here_ = backend.FaceSetup.here
+    here_ = FaceSetup.here
 
     def counted(face, area_check=False):
         made.append(face.number)
         return here_(face, area_check)
     polls = iter([False, False, False, False])  # still tessellating for two faces' set-ups
     monkeypatch.setattr(RecordedShape, "lref_ready", lambda self: next(polls, True))
-    monkeypatch.setattr(backend.FaceSetup, "here", staticmethod(counted))
+    monkeypatch.setattr(FaceSetup, "here", staticmethod(counted))
     r = backend.assess_brep(ReadInChild(path, None, False), lref=4.0, jobs=2, with_fields=False)
     assert sorted(made) == [1, 2]
 

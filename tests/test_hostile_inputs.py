@@ -215,8 +215,9 @@ def test_occ_area_failures_do_not_end_the_provenance():
 
 @needs_freecad
 def test_face_without_domain_extent_has_zero_area():
-    from hullprod_wb.brep.backend import FaceSetup
-    from hullprod_wb.brep.left_out import EmptyDomain, left_out_face
+    from hullprod_wb.brep.face_setup import FaceSetup
+    from hullprod_wb.brep.face_setup import EmptyDomain
+    from hullprod_wb.brep.left_out import left_out_face
     from hullprod_wb.brep.loading import load_brep
     inp = load_brep(shared_hull("brep/kcs_full_closed_ohp.iges"))
     empty = []

@@ -1,6 +1,6 @@
 """Faces of a BRep assessment integrated in parallel worker processes.
 
-The faces of a shape are integrated independently of each other (backend.assess_face: one
+The faces of a shape are integrated independently of each other (face_assessment.assess_face: one
 face's adaptive tree never looks at another's), so running them in several processes gives
 the same numbers, to the bit, as running them one after the other; only the wall time
 changes. Workers are forked from the assessing process and inherit the shape that is

@@ -6,13 +6,11 @@ what share of the area those carry (paper section 4.3: validity travels with the
 """
 from ..core.errors import InputError
 from ..core.validity import ESTABLISHED, Status
+from .cross_checks import area_rule
+from .face_setup import EmptyDomain, FaceSetup
 
 #: Tessellation deflection of a left-out face's polygon area estimate, relative to its size.
 POLYGON_ESTIMATE_DEFLECTION = 1e-3
-
-
-class EmptyDomain(Exception):
-    """A face whose trimmed domain has no extent in u or v: it carries no area."""
 
 
 class LeftOutFace:
@@ -67,7 +65,6 @@ def left_out_face(number, face, exc, setup=None):
         return LeftOutFace(number, "its trimmed domain has no extent (%s): a face of zero area" % exc,
                            0.0, "trimmed domain without extent", surface_type or "no surface")
     reason = _one_line(exc)
-    from .backend import FaceSetup, area_rule
     try:
         s = setup or FaceSetup(face)
         area = float(area_rule(s.ff, s.domain, s.gu, s.gv)[0])

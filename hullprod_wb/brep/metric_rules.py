@@ -3,6 +3,9 @@ budget for the shape (a metric's quantities converged when their summed error es
 rtol of the totals), the audits' verdicts (SINGULAR, CAUTION, VALID*), trim-domain
 fallbacks, refinements that disagree, the I_D stability rule (section 5.2), the per-face
 records and the threshold band of the class fractions."""
+from dataclasses import dataclass
+from typing import Callable
+
 import numpy as np
 
 from ..core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
@@ -61,7 +64,7 @@ def face_records(faces, integrals, lref):
     K_tot = integrals.int_abs_K
     rows = []
     for f in faces:
-        r = f.result
+        r = f.quad
         ig = r.integrals()
         vals = signature_values(ig, lref)
         verdicts = [a["verdict"] for a in f.audits]
@@ -105,8 +108,118 @@ def concentrated_faces(rows):
     return out
 
 
+@dataclass
+class MetricCase:
+    """What the validity rules read of one metric: its name, whether it is a K integral's
+    (is_K: I_D, I_D+, I_D- over A_valid), whether its quantities converged under the shape's
+    error budget (global_converged), the shape's valid area, the audits and their verdicts,
+    the global refinement sequence (history), the faces whose two integrations disagree on
+    it (disagreeing_refinements), the faces whose trim domain is a polygon (fallback), the
+    degenerate points and sides counted, the quadrature options, and the evidence so far."""
+
+    metric: str
+    is_K: bool
+    converged: bool
+    valid_area: float
+    audits: list
+    verdicts: list
+    history: list
+    disagreeing: list
+    fallback: list
+    degenerate_count: int
+    opts: dict
+    evidence: dict
+
+
+def _no_evidence(case):
+    return {}
+
+
+def _audit_evidence(case):
+    return {"audit": case.audits}
+
+
+@dataclass(frozen=True)
+class ValidityRule:
+    """One row of VALIDITY_RULES: a metric whose case satisfies applies(case) gets status,
+    code and reason(case), and the entries of evidence(case) added to its evidence; its
+    value goes with it when keeps_value (MetricValidity keeps it as the finite candidate
+    where the status does not establish it)."""
+
+    status: Status
+    code: str
+    applies: Callable
+    reason: Callable
+    evidence: Callable = _no_evidence
+    keeps_value: bool = True
+
+
+def _unresolved_reason(case):
+    opts, evidence, rtol = case.opts, case.evidence, case.opts["rtol"]
+    if opts.get("protocol") == "paper":
+        return ("adaptive quadrature did not reach the tolerance %g at depth %d, nor at %d"
+                % (rtol, opts["max_depth"], opts["max_depth"] + 1))
+    return ("the summed error estimate %.3g exceeds the tolerance %.3g (rtol %g of the total) with the "
+            "point budget spent on face(s) %s" % (evidence["error_estimate"], evidence["tolerance"], rtol,
+                                                  ",".join(map(str, evidence["budget_spent_faces"])) or "none"))
+
+
+def _improper_reason(case):
+    pw = [a["decay_power"] for a in case.audits if a["verdict"] == "convergent"]
+    return ("convergent improper integral: |K| is unbounded at %d degenerate point(s); the "
+            "excluded |K| integral decays like r^%.2f" % (len(pw), min(pw)))
+
+
+def _degenerate_reason(case):
+    if all(v == "regular" for v in case.verdicts):
+        return ("converged; %d degenerate parameter point(s)/side(s) with bounded curvature "
+                "(parameterisation degeneracy)" % case.degenerate_count)
+    return "converged; singular points carry zero area"
+
+
+#: The validity rules of a metric (paper section 4.3), in order: the first whose condition
+#: holds gives the metric's record. No regular area to evaluate; the quantities not converged
+#: under the shape's error budget; for the K integrals, an audit whose excluded |K| integral
+#: does not shrink; for I_D, an unstable global refinement sequence (section 5.2); for the K
+#: integrals, degenerate points not shown regular or convergent, then a convergent improper
+#: integral; refinements whose integrations disagree; trim domains that are polygons;
+#: converged with degenerate points or sides; converged.
+VALIDITY_RULES = (
+    ValidityRule(Status.NOT_EVALUATED, "no_valid_area", lambda c: c.valid_area <= 0,
+                 lambda c: "no regular surface area to evaluate", keeps_value=False),
+    ValidityRule(Status.UNCONVERGED, "quadrature_unresolved", lambda c: not c.converged, _unresolved_reason),
+    ValidityRule(Status.SINGULAR, "non_integrable_singularity", lambda c: c.is_K and "divergent" in c.verdicts,
+                 lambda c: "the |K| integral does not shrink with the neighbourhood of a singular point",
+                 _audit_evidence),
+    ValidityRule(Status.UNCONVERGED, "refinement_unstable",
+                 lambda c: c.metric == "I_D" and bool(c.history) and not _stable(c.history),
+                 lambda c: "I_D changed by more than 2 %/3 % over the last global refinements",
+                 lambda c: {"refinement_sequence": c.history}),
+    ValidityRule(Status.CAUTION, "singular_set_unresolved",
+                 lambda c: c.is_K and ("inconclusive" in c.verdicts or "not_audited" in c.verdicts),
+                 lambda c: "degenerate points whose neighbourhood could not be shown regular or convergent",
+                 _audit_evidence),
+    ValidityRule(Status.VALID_STAR, "convergent_improper", lambda c: c.is_K and "convergent" in c.verdicts,
+                 _improper_reason, _audit_evidence),
+    ValidityRule(Status.CAUTION, "error_estimate_unreliable", lambda c: bool(c.disagreeing),
+                 lambda c: "face(s) %s: a finer integration differs from the earlier one by more than their "
+                           "error estimates, which are therefore not reliable there"
+                           % ",".join(str(b["face"]) for b in c.disagreeing),
+                 lambda c: {"disagreeing_refinements": c.disagreeing}),
+    ValidityRule(Status.CAUTION, "approximate_trim_domain", lambda c: bool(c.fallback),
+                 lambda c: "face(s) %s: trim curves do not close; their domain is a polygon from the "
+                           "3-D edges" % ",".join(str(n) for n in c.fallback),
+                 lambda c: {"approximate_domains": c.fallback}),
+    ValidityRule(Status.VALID, "converged_degenerate_parameterisation", lambda c: bool(c.degenerate_count),
+                 _degenerate_reason, _audit_evidence),
+    ValidityRule(Status.VALID, "converged", lambda c: True, lambda c: ""),
+)
+
+
 def metric_validity(faces, integrals, values, opts, history):
-    """Validity record of each signature metric (paper section 4.3)."""
+    """Validity record of each signature metric (paper section 4.3): the first of
+    VALIDITY_RULES that holds for it, with the evidence of the shape's error budget, then
+    I_D's refinement sequence and the polygon trim domains named on every record."""
     rtol = opts["rtol"]
     audits = [a for f in faces for a in f.audits]
     verdicts = [a["verdict"] for a in audits]
@@ -122,7 +235,7 @@ def metric_validity(faces, integrals, values, opts, history):
             den == "A_classified" or global_converged(faces, den, rtol))
         if den == "A_classified":
             conv = conv and all(global_converged(faces, c, rtol) for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
-        evidence = {"error_estimate": sum(f.result.errors.get(num, 0.0) for f in faces),
+        evidence = {"error_estimate": sum(f.quad.errors.get(num, 0.0) for f in faces),
                     "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
                     "points": int(sum(f.quad.n_points for f in faces))}
         evidence["tolerance"] = global_tolerance(faces, num, rtol)
@@ -134,63 +247,12 @@ def metric_validity(faces, integrals, values, opts, history):
                              "budget_spent_faces": [f.number for f in faces if f.quad.budget_spent]})
         if repaired:
             evidence["repaired_domains"] = repaired
-        is_K = den == "A_valid"
-        disagreeing = disagreeing_refinements(faces, num, den, rtol)
-        if valid <= 0:
-            rec = MetricValidity(Status.NOT_EVALUATED, None, "no regular surface area to evaluate",
-                                 "no_valid_area", rep, valid, evidence)
-        elif not conv:
-            reason = ("adaptive quadrature did not reach the tolerance %g at depth %d, nor at %d"
-                      % (rtol, opts["max_depth"], opts["max_depth"] + 1) if opts.get("protocol") == "paper" else
-                      "the summed error estimate %.3g exceeds the tolerance %.3g (rtol %g of the total) with the "
-                      "point budget spent on face(s) %s" % (evidence["error_estimate"], evidence["tolerance"], rtol,
-                                                            ",".join(map(str, evidence["budget_spent_faces"])) or "none"))
-            rec = MetricValidity(Status.UNCONVERGED, values[m], reason, "quadrature_unresolved", rep, valid, evidence)
-        elif is_K and "divergent" in verdicts:
-            evidence["audit"] = audits
-            rec = MetricValidity(Status.SINGULAR, values[m],
-                                 "the |K| integral does not shrink with the neighbourhood of a singular point",
-                                 "non_integrable_singularity", rep, valid, evidence)
-        elif m == "I_D" and history and not _stable(history):
-            evidence["refinement_sequence"] = history
-            rec = MetricValidity(Status.UNCONVERGED, values[m],
-                                 "I_D changed by more than 2 %/3 % over the last global refinements",
-                                 "refinement_unstable", rep, valid, evidence)
-        elif is_K and ("inconclusive" in verdicts or "not_audited" in verdicts):
-            evidence["audit"] = audits
-            rec = MetricValidity(Status.CAUTION, values[m],
-                                 "degenerate points whose neighbourhood could not be shown regular or convergent",
-                                 "singular_set_unresolved", rep, valid, evidence)
-        elif is_K and "convergent" in verdicts:
-            evidence["audit"] = audits
-            pw = [a["decay_power"] for a in audits if a["verdict"] == "convergent"]
-            rec = MetricValidity(Status.VALID_STAR, values[m],
-                                 "convergent improper integral: |K| is unbounded at %d degenerate point(s); the "
-                                 "excluded |K| integral decays like r^%.2f" % (len(pw), min(pw)),
-                                 "convergent_improper", rep, valid, evidence)
-        elif disagreeing:
-            evidence["disagreeing_refinements"] = disagreeing
-            rec = MetricValidity(Status.CAUTION, values[m],
-                                 "face(s) %s: a finer integration differs from the earlier one by more than their "
-                                 "error estimates, which are therefore not reliable there"
-                                 % ",".join(str(b["face"]) for b in disagreeing), "error_estimate_unreliable",
-                                 rep, valid, evidence)
-        elif fallback:
-            evidence["approximate_domains"] = fallback
-            rec = MetricValidity(Status.CAUTION, values[m],
-                                 "face(s) %s: trim curves do not close; their domain is a polygon from the "
-                                 "3-D edges" % ",".join(str(n) for n in fallback), "approximate_trim_domain",
-                                 rep, valid, evidence)
-        else:
-            reason = ""
-            code = "converged"
-            if deg_count:
-                reason = ("converged; %d degenerate parameter point(s)/side(s) with bounded curvature "
-                          "(parameterisation degeneracy)" % deg_count if all(v == "regular" for v in verdicts)
-                          else "converged; singular points carry zero area")
-                code = "converged_degenerate_parameterisation"
-                evidence["audit"] = audits
-            rec = MetricValidity(Status.VALID, values[m], reason, code, rep, valid, evidence)
+        case = MetricCase(m, den == "A_valid", conv, valid, audits, verdicts, history,
+                          disagreeing_refinements(faces, num, den, rtol), fallback, deg_count, opts, evidence)
+        rule = next(r for r in VALIDITY_RULES if r.applies(case))
+        evidence.update(rule.evidence(case))
+        rec = MetricValidity(rule.status, values[m] if rule.keeps_value else None, rule.reason(case), rule.code,
+                             rep, valid, evidence)
         if m == "I_D" and history:
             rec.evidence["refinement_sequence"] = history
         if fallback and rec.code != "approximate_trim_domain":
@@ -228,7 +290,7 @@ def _stable(history):
 
 def refinement_history(faces, lref):
     """Global I_D, I_D+, I_D- after each quadtree level (summed over faces), when recorded."""
-    per_face = [getattr(f.result, "history", None) for f in faces]
+    per_face = [getattr(f.quad, "history", None) for f in faces]
     if not per_face or any(h is None for h in per_face):
         return []
     depth = max(len(h) for h in per_face)

@@ -11,7 +11,7 @@ Nothing here imports numpy: the reading side never loads it.
 """
 from array import array
 
-#: Cross-check points per face (backend.cross_check_occ compares at the same points).
+#: Cross-check points per face (cross_checks.cross_check_occ compares at the same points).
 CROSS_CHECK_POINTS = 7
 #: Samples of each p-curve at which its conversion is checked against OpenCascade.
 PCURVE_CHECK_SAMPLES = 5

@@ -1,6 +1,7 @@
 """QuadratureResult: a face's integrals with their error estimates, tolerances, counts and
 the locations the refinement left unresolved (scipy.integrate's habit: the value never
-travels without its evidence)."""
+travels without its evidence); QuadratureValues: the integrals record and convergence that
+every quadrature result of a face reads from its values."""
 from dataclasses import dataclass
 from typing import Optional
 
@@ -10,8 +11,29 @@ from ...core.integrals import SurfaceIntegrals
 from .settings import N_SMOOTH, QUANTITIES
 
 
+class QuadratureValues:
+    """What every quadrature result of a face gives from its values and converged (dicts
+    quantity (see QUANTITIES) -> float, bool): QuadratureResult and the combined result of a
+    face's parts (face_result.CombinedQuadrature)."""
+
+    @property
+    def all_converged(self):
+        return all(self.converged.values())
+
+    @property
+    def class_areas(self):
+        """(4,) flat, single, elliptic, saddle areas."""
+        return np.array([self.values[q] for q in QUANTITIES[N_SMOOTH:]])
+
+    def integrals(self):
+        """The values as a core SurfaceIntegrals record."""
+        v = self.values
+        return SurfaceIntegrals(v["A"], v["A_valid"], v["int_abs_K"], v["int_K_plus"],
+                                v["int_K_minus"], self.class_areas)
+
+
 @dataclass
-class QuadratureResult:
+class QuadratureResult(QuadratureValues):
     """Integrals over one face with their evidence.
 
     values, errors, tolerances: dict quantity (see QUANTITIES) -> float; values are the
@@ -61,21 +83,6 @@ class QuadratureResult:
     point_budget: Optional[int] = None
     budget_spent: bool = False
     deepest_cells: Optional[np.ndarray] = None
-
-    @property
-    def all_converged(self):
-        return all(self.converged.values())
-
-    @property
-    def class_areas(self):
-        """(4,) flat, single, elliptic, saddle areas."""
-        return np.array([self.values[q] for q in QUANTITIES[N_SMOOTH:]])
-
-    def integrals(self):
-        """The values as a core SurfaceIntegrals record."""
-        v = self.values
-        return SurfaceIntegrals(v["A"], v["A_valid"], v["int_abs_K"], v["int_K_plus"],
-                                v["int_K_minus"], self.class_areas)
 
     def to_dict(self):
         """Plain data (lists for the location arrays)."""

@@ -1,0 +1,84 @@
+"""What the assessment of one BRep face holds: the quadrature of its parts combined
+(CombinedQuadrature: the face with its singular neighbourhoods excluded, and each
+neighbourhood through its graded map) and the face's assessment (FaceAssessment), which
+leaves a worker process as plain data."""
+from dataclasses import dataclass
+from dataclasses import field as dc_field
+from typing import Optional
+
+from .cubature import QUANTITIES
+from .cubature.result import QuadratureValues
+
+
+def final_result(q):
+    """The deepest result of a quadrature (the depth-6 recheck when there was one)."""
+    return q.recheck if q.recheck is not None else q
+
+
+class CombinedQuadrature(QuadratureValues):
+    """Quadrature of a face made of parts: the face with its singular neighbourhoods
+    excluded (n_main parts: its patch groups), and each neighbourhood quadrant through its
+    graded map. Sums values, errors and counts. A quantity is converged when every main part
+    converged (at its deepest check) and the summed error estimates of all parts are within
+    their summed tolerances."""
+
+    def __init__(self, parts, n_main=1):
+        self.parts = parts
+        self.n_main = int(n_main)
+        finals = [final_result(p) for p in parts]
+        self.values = {k: float(sum(f.values[k] for f in finals)) for k in QUANTITIES}
+        self.errors = {k: float(sum(f.errors[k] for f in finals)) for k in QUANTITIES}
+        main = finals[:self.n_main]
+        self.converged = {k: bool(all(m.converged[k] for m in main) and
+                                  self.errors[k] <= sum(f.tolerances[k] for f in finals))
+                          for k in QUANTITIES}
+        self.depth_reached = max(f.depth_reached for f in finals)
+        self.n_points = int(sum(p.n_points + (p.recheck.n_points if p.recheck is not None else 0)
+                                for p in parts))
+        self.rechecked = any(p.recheck is not None for p in parts)
+        self.budget_spent = any(getattr(f, "budget_spent", False) for f in finals)
+        # refinement sequence: the parts' level estimates summed level by level (a part
+        # that stopped earlier keeps its last estimate)
+        hist = [(f.history or [f.values]) for f in finals]
+        self.history = [{k: float(sum(h[min(d, len(h) - 1)][k] for h in hist)) for k in QUANTITIES}
+                        for d in range(max(len(h) for h in hist))]
+
+    def to_dict(self):
+        return {"values": self.values, "errors": self.errors, "converged": self.converged,
+                "depth_reached": self.depth_reached, "n_points": self.n_points, "rechecked": self.rechecked,
+                "budget_spent": self.budget_spent,
+                "patch_groups": self.n_main, "parts": [p.to_dict() for p in self.parts]}
+
+
+@dataclass
+class DomainSummary:
+    """What the records say of a face's trimmed domain (kept when the domain is dropped)."""
+
+    is_rectangle: bool
+    fallback: Optional[str] = None
+    repairs: list = dc_field(default_factory=list)
+
+
+class FaceAssessment:
+    """Everything computed for one face: its number, field and trimmed domain (OpenCascade
+    objects until detach()), knot and neighbourhood lines, degenerate set, neighbourhood
+    quadrants, quadrature (quad: a CombinedQuadrature), audits, and the cross-checks (None
+    until cross_checks.face_cross_checks)."""
+
+    def __init__(self, number, ff, domain, breaks, degenerate, quadrants, quad, audits):
+        self.number, self.ff, self.domain = number, ff, domain
+        self.u_breaks, self.v_breaks = breaks  # knot lines and neighbourhood box lines
+        self.degenerate, self.quadrants, self.quad, self.audits = degenerate, quadrants, quad, audits
+        self.surface_type = ff.surface_type
+        self.kind = ff.kind
+        self.cross_check = None
+        self.disagreement = {}  # quantity -> [earlier, finer] where a second integration disagreed
+
+    def detach(self):
+        """Drop the face field and the trimmed domain (OpenCascade objects), keeping what the
+        records need, so that the assessment can leave a worker process. Returns self."""
+        d = self.domain
+        self.domain = DomainSummary(bool(d.is_rectangle), getattr(d, "fallback", None),
+                                    list(getattr(d, "repairs", None) or []))
+        self.ff = None
+        return self
