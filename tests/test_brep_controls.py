@@ -56,6 +56,31 @@ def test_open_cylinder():
     assert r.integrals.represented_area == pytest.approx(2 * math.pi * 2.0, rel=1e-12)
 
 
+@pytest.mark.parametrize("kind", ["cone", "B-spline cone", "quarter cone"])
+def test_cone_apex_is_developable_not_singular(tmp_path, kind):
+    """A cone (radius 10, height 30) read from STEP: K = 0 on its regular surface, and the
+    apex, where H grows without bound, carries no |K| (the curvature there is zero to
+    rounding): every metric is established, I_D is 0 to rounding and the cone is singly
+    curved (its base disc flat)."""
+    import Part
+    from FreeCAD import Vector
+    if kind == "quarter cone":
+        solid = Part.makeCone(10, 0, 30, Vector(0, 0, 0), Vector(0, 0, 1), 90)
+        shape = Part.Shape([f for f in solid.Faces if "Cone" in f.Surface.TypeId][0])
+    else:
+        shape = Part.makeCone(10, 0, 30)
+        shape = shape.toNurbs() if kind == "B-spline cone" else shape
+    path = str(tmp_path / "cone.step")
+    shape.exportStep(path)
+    r = assess(path, lref=30.0, with_fields=False)
+    assert set(statuses(r).values()) <= {"VALID", "VALID*"}, statuses(r)
+    assert abs(r.signature["I_D"]) < 1e-9
+    lateral = math.pi * 10 * math.hypot(10, 30) * (0.25 if kind == "quarter cone" else 1.0)
+    disc = 0.0 if kind == "quarter cone" else math.pi * 100
+    np.testing.assert_allclose(fractions(r), [disc / (disc + lateral), lateral / (disc + lateral), 0, 0],
+                               atol=ATOL_CLASS)
+
+
 def test_saddle_closed_form():
     # At the default local tolerance (1e-4) the saddle's smooth integrand is accepted after
     # one refinement, 3.4e-9 from the closed form; the 1e-9 goal needs rtol 1e-6 (measured

@@ -19,11 +19,12 @@ SQUARE = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0)
 
 
 def corner_field(a):
-    """J = 1, K = r^-a at the corner (0, 0) of the unit square (r = |(u, v)|), H = K."""
+    """J = 1, K = r^-a at the corner (0, 0) of the unit square (r = |(u, v)|), H = sqrt(K)
+    (umbilic: k1 = k2, as a surface's curvatures can be)."""
     def f(u, v):
         u, v = np.asarray(u, float), np.asarray(v, float)
         K = np.maximum(np.hypot(u, v), 1e-300) ** -a
-        return {"J": np.ones_like(u), "K": K, "H": K, "regular": np.ones(u.shape, bool)}
+        return {"J": np.ones_like(u), "K": K, "H": np.sqrt(K), "regular": np.ones(u.shape, bool)}
     return f
 
 
@@ -127,12 +128,41 @@ def test_collapsed_side_strips_decide_convergence():
         def f(u, v):
             u, v = np.asarray(u, float), np.asarray(v, float)
             K = np.maximum(u, 1e-300) ** -a
-            return {"J": np.ones_like(u), "K": K, "H": K, "regular": np.ones(u.shape, bool)}
+            return {"J": np.ones_like(u), "K": K, "H": np.sqrt(K), "regular": np.ones(u.shape, bool)}
         return f
     conv = singular.probe_side(side_field(0.5), SQUARE, "u0", [], [])
     div = singular.probe_side(side_field(1.5), SQUARE, "u0", [], [])
     assert conv["verdict"] == "convergent" and conv["decay_power"] == pytest.approx(0.5, abs=0.05)
     assert div["verdict"] == "divergent" and div["decay_power"] < 0.0
+
+
+def test_rounding_level_curvature_at_an_apex_is_not_a_singularity():
+    """A developable surface towards its apex (a cone): H ~ d^-1 grows at the collapsed side
+    while K = k1 k2 is zero but for rounding, which grows like H^2. The audits take K zero
+    to rounding as zero (KZeroToRounding) and find the side regular; the same field with a
+    K of 1e-10 H^2 (far above rounding, a real if tiny Gaussian curvature) stays divergent."""
+    def apex_field(k_over_h2):
+        def f(u, v):
+            u, v = np.asarray(u, float), np.asarray(v, float)
+            H = 1.0 / np.maximum(u, 1e-300)
+            return {"J": np.ones_like(u), "K": k_over_h2 * H * H * np.cos(7 * v), "H": H,
+                    "regular": np.ones(u.shape, bool)}
+        return f
+    noise = singular.probe_side(apex_field(4e-16), SQUARE, "u0", [], [])
+    real = singular.probe_side(apex_field(1e-10), SQUARE, "u0", [], [])
+    assert noise["verdict"] == "regular" and real["verdict"] == "divergent"
+    q = singular.Quadrant(0.0, 0.0, 1, 1, 0.5, 0.5)
+    out = singular.audit_point(apex_field(4e-16), (0.0, 0.0), [q], {k: 1.0 for k in QUANTITIES}, 1.0,
+                               TAU_H, TAU_K)
+    assert out["verdict"] == "regular"
+
+
+def test_stability_rule_reads_changes_under_the_zero_floor_as_rounding():
+    from hullprod_wb.brep.metric_rules import _stable
+    noise = [{"I_D": x} for x in (6.7e-32, 4.5e-32, 5.4e-32, 6.7e-32)]
+    assert not _stable(noise) and _stable(noise, 1e-6)
+    moving = [{"I_D": x} for x in (1.0, 1.1, 1.3)]
+    assert not _stable(moving, 1e-6)
 
 
 def test_stalled_refinement_is_located_at_the_knot_grid_node():

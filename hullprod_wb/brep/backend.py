@@ -270,7 +270,7 @@ class BrepRun:
             integrals = integrals + f.quad.integrals()
         values = signature_values(integrals, ref.value)
         history = refinement_history(results, ref.value)
-        validity = metric_validity(results, integrals, values, opts, history)
+        validity = metric_validity(results, integrals, values, opts, history, th.k_f)
         rows = face_records(results, integrals, ref.value)
         if left_out:
             rows = sorted(rows + [f.record() for f in left_out], key=lambda r: r["face"])

@@ -11,6 +11,7 @@ import numpy as np
 from ..core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
 from ..core.signature import signature_values
 from ..core.validity import MetricValidity, Status
+from .cubature.settings import ZERO_SCALE
 
 #: Stability rule for I_D over the global refinement sequence: last and prior relative change.
 ID_STABILITY = (0.02, 0.03)
@@ -129,6 +130,7 @@ class MetricCase:
     degenerate_count: int
     opts: dict
     evidence: dict
+    id_zero: float = 0.0
 
 
 def _no_evidence(case):
@@ -192,7 +194,7 @@ VALIDITY_RULES = (
                  lambda c: "the |K| integral does not shrink with the neighbourhood of a singular point",
                  _audit_evidence),
     ValidityRule(Status.UNCONVERGED, "refinement_unstable",
-                 lambda c: c.metric == "I_D" and bool(c.history) and not _stable(c.history),
+                 lambda c: c.metric == "I_D" and bool(c.history) and not _stable(c.history, c.id_zero),
                  lambda c: "I_D changed by more than 2 %/3 % over the last global refinements",
                  lambda c: {"refinement_sequence": c.history}),
     ValidityRule(Status.CAUTION, "singular_set_unresolved",
@@ -216,7 +218,7 @@ VALIDITY_RULES = (
 )
 
 
-def metric_validity(faces, integrals, values, opts, history):
+def metric_validity(faces, integrals, values, opts, history, k_f):
     """Validity record of each signature metric (paper section 4.3): the first of
     VALIDITY_RULES that holds for it, with the evidence of the shape's error budget, then
     I_D's refinement sequence and the polygon trim domains named on every record."""
@@ -248,7 +250,8 @@ def metric_validity(faces, integrals, values, opts, history):
         if repaired:
             evidence["repaired_domains"] = repaired
         case = MetricCase(m, den == "A_valid", conv, valid, audits, verdicts, history,
-                          disagreeing_refinements(faces, num, den, rtol), fallback, deg_count, opts, evidence)
+                          disagreeing_refinements(faces, num, den, rtol), fallback, deg_count, opts, evidence,
+                          ZERO_SCALE * k_f)
         rule = next(r for r in VALIDITY_RULES if r.applies(case))
         evidence.update(rule.evidence(case))
         rec = MetricValidity(rule.status, values[m] if rule.keeps_value else None, rule.reason(case), rule.code,
@@ -278,14 +281,19 @@ def disagreeing_refinements(faces, num, den, rtol):
     return out
 
 
-def _stable(history):
-    """I_D stability rule (section 5.2): last and prior relative changes <= 2 % and 3 %."""
+def _stable(history, zero=0.0):
+    """I_D stability rule (section 5.2): last and prior relative changes <= 2 % and 3 %,
+    relative to |I_D| or zero, whichever is larger: an I_D under zero (ZERO_SCALE k_f, as the
+    cubature's own floor tau_K A scaled by L_ref^2 / A) is zero to the classification, and its
+    changes are rounding."""
     seq = [h["I_D"] for h in history if h.get("I_D") is not None]
     if len(seq) < 3:
         return True
-    c_last = abs(seq[-1] - seq[-2]) / abs(seq[-1]) if seq[-1] else 0.0
-    c_prior = abs(seq[-2] - seq[-3]) / abs(seq[-2]) if seq[-2] else 0.0
-    return c_last <= ID_STABILITY[0] and c_prior <= ID_STABILITY[1]
+
+    def change(new, old):
+        scale = max(abs(new), zero)
+        return abs(new - old) / scale if scale > 0 else 0.0
+    return change(seq[-1], seq[-2]) <= ID_STABILITY[0] and change(seq[-2], seq[-3]) <= ID_STABILITY[1]
 
 
 def refinement_history(faces, lref):

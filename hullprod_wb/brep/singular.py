@@ -38,6 +38,11 @@ BOUNDED_POWER = 1.9
 UNBOUNDED_GROWTH = 10.0
 
 
+#: |K| at or below this multiple of the machine epsilon times k1^2 + k2^2 is zero to the
+#: rounding of the principal curvatures (KZeroToRounding).
+K_ROUNDING = 16.0
+
+
 #: A knot-grid node whose |K| J exceeds this multiple of the face's mean is a hot spot.
 HOT_SPOT_FACTOR = 100.0
 
@@ -302,6 +307,29 @@ def quadrant_breaks(quadrants):
     return np.asarray(us, dtype=float), np.asarray(vs, dtype=float)
 
 
+class KZeroToRounding:
+    """The face field with K = 0 where |K| <= K_ROUNDING eps (k1^2 + k2^2), k1^2 + k2^2 =
+    4 H^2 - 2 K: a Gaussian curvature that is zero to the rounding of the principal
+    curvatures (a cone or another developable surface towards its apex). Its noise grows
+    like the curvature squared and would read as a non-integrable singularity to the
+    audit's scale-free decay fit; the audits use this field."""
+
+    def __init__(self, face_field):
+        self.ff = face_field
+
+    def __getattr__(self, name):
+        return getattr(self.ff, name)
+
+    def __call__(self, u, v):
+        f = self.ff(u, v)
+        K, H = f["K"], f["H"]
+        with np.errstate(invalid="ignore"):
+            zero = np.abs(K) <= K_ROUNDING * np.finfo(float).eps * np.abs(4.0 * H * H - 2.0 * K)
+        if not np.any(zero):
+            return f
+        return {**f, "K": np.where(zero, 0.0, K)}
+
+
 def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=5, rtol=1e-6,
                 max_depth=3, levels=AUDIT_LEVELS, m=GRADING_POWER):
     """Nested-neighbourhood audit around a degenerate point.
@@ -318,6 +346,7 @@ def audit_point(face_field, point, quadrants, totals, lref, tau_H, tau_K, order=
     'inconclusive', or 'not_audited' (no quadrant lies inside the trimmed domain).
     """
     pu, pv = point
+    face_field = KZeroToRounding(face_field)
     mine = [q for q in quadrants if (q.pu, q.pv) == (pu, pv)]
     if not mine:
         return {"point": [pu, pv], "verdict": "not_audited",
@@ -441,7 +470,8 @@ def probe_side(face_field, domain, side, u_breaks, v_breaks, levels=12, order=5,
     (graded map GradedStripField; on a trimmed face the strip is cut by the domain), decided
     as audit_point's neighbourhoods are (_staged_verdict, the innermost from levels // 2):
     'regular' (|K| bounded), 'convergent' (p > CONVERGENT_POWER), 'divergent' (p <= 0), else
-    'inconclusive'."""
+    'inconclusive'. K zero to rounding is zero (KZeroToRounding)."""
+    face_field = KZeroToRounding(face_field)
     (u0, u1), (v0, v1) = domain.u_range, domain.v_range
     g = np.linspace(0.01, 0.99, 41)
     kmax, radii = [], []
