@@ -14,14 +14,6 @@ from ..core.reference_length import AUTOMATIC_METHOD, principal_axis_span
 TESSELLATION_FRACTION = 2.0e-3
 
 
-def vertex_areas(points, triangles):
-    """(n,) float: one third of the area of the triangles around each vertex."""
-    P = np.asarray(points, float)
-    T = np.asarray(triangles, np.int64).reshape(-1, 3)
-    area = 0.5 * np.linalg.norm(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), axis=1)
-    return np.bincount(T.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(P))
-
-
 def surface_samples(source, faces=None):
     """(points (n, 3), triangles (m, 3)) of a Part object's faces or a Mesh object."""
     if hasattr(source, "Shape"):
@@ -54,4 +46,4 @@ def proposed_lref(source, faces=None):
     """dict(value, method, units) of the automatic L_ref proposal for source."""
     P, T = surface_samples(source, faces)
     units = "mm" if hasattr(source, "Shape") else "mesh units"
-    return {"value": principal_axis_span(P, vertex_areas(P, T)), "method": AUTOMATIC_METHOD, "units": units}
+    return {"value": principal_axis_span(P, T), "method": AUTOMATIC_METHOD, "units": units}

@@ -498,7 +498,7 @@ def _assess_brep(source, lref, h_f, k_f, faces, with_fields, progress, order, rt
                                             inp.lref_tessellation)
     if lref_samples is None:
         raise InputError("the faces could not be sampled (no tessellation): empty or invalid faces")
-    ref = resolve_reference_length(lref_samples["points"], lref_samples["node_area"], explicit=lref,
+    ref = resolve_reference_length(lref_samples["points"], lref_samples["triangles"], lref_samples["node_area"], explicit=lref,
                                    units=inp.units.get("working_unit", ""))
     deflection = (display_deflection or DISPLAY_DEFLECTION * size) if with_fields else None
 
