@@ -1,9 +1,9 @@
 """The automatic L_ref proposal shown before a run (paper eq:refs).
 
-Same method as the assessment's automatic L_ref (core.reference_length): the span of
-area-weighted surface samples along their first principal axis; here the samples are
-the nodes of a display tessellation (BRep) or the mesh vertices, so the proposal can
-differ slightly from the value the run then reports as 'automatic'.
+Same method as the assessment's automatic L_ref (core.reference_length): the span along
+the first principal axis of the area of a triangulation; here a display tessellation
+(BRep) or the mesh itself, so for a BRep the proposal can differ slightly from the value
+the run then reports as 'automatic'.
 """
 import numpy as np
 
