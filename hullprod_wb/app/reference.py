@@ -1,9 +1,9 @@
 """The automatic L_ref proposal shown before a run (paper eq:refs).
 
-Same method as the assessment's automatic L_ref (core.reference_length): the span of
-area-weighted surface samples along their first principal axis; here the samples are
-the nodes of a display tessellation (BRep) or the mesh vertices, so the proposal can
-differ slightly from the value the run then reports as 'automatic'.
+Same method as the assessment's automatic L_ref (core.reference_length): the span along
+the first principal axis of the area of a triangulation; here a display tessellation
+(BRep) or the mesh itself, so for a BRep the proposal can differ slightly from the value
+the run then reports as 'automatic'.
 """
 import numpy as np
 
@@ -12,14 +12,6 @@ from ..core.reference_length import AUTOMATIC_METHOD, principal_axis_span
 
 #: Tessellation tolerance for the proposal, as a fraction of the bounding-box diagonal.
 TESSELLATION_FRACTION = 2.0e-3
-
-
-def vertex_areas(points, triangles):
-    """(n,) float: one third of the area of the triangles around each vertex."""
-    P = np.asarray(points, float)
-    T = np.asarray(triangles, np.int64).reshape(-1, 3)
-    area = 0.5 * np.linalg.norm(np.cross(P[T[:, 1]] - P[T[:, 0]], P[T[:, 2]] - P[T[:, 0]]), axis=1)
-    return np.bincount(T.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(P))
 
 
 def surface_samples(source, faces=None):
@@ -54,4 +46,4 @@ def proposed_lref(source, faces=None):
     """dict(value, method, units) of the automatic L_ref proposal for source."""
     P, T = surface_samples(source, faces)
     units = "mm" if hasattr(source, "Shape") else "mesh units"
-    return {"value": principal_axis_span(P, vertex_areas(P, T)), "method": AUTOMATIC_METHOD, "units": units}
+    return {"value": principal_axis_span(P, T), "method": AUTOMATIC_METHOD, "units": units}

@@ -65,23 +65,21 @@ def brep_lref(path, faces):
 
     def span(chosen):
         s = tessellation_samples([f for _, f in chosen], SAMPLE_DEFLECTION * size)
-        return None if s is None else float(principal_axis_span(s["points"], s["node_area"]))
+        return None if s is None else float(principal_axis_span(s["points"], s["triangles"], s["node_area"]))
     chosen = span(inp.faces)
     whole = chosen if faces is None else span(list(enumerate(inp.shape.Faces, 1)))
     return chosen, whole
 
 
 def mesh_lref(path):
-    """Automatic L_ref of a mesh .npz, by the mesh backend's method (the vertex areas of
-    its curvature, core.reference_length)."""
+    """Automatic L_ref of a mesh .npz, by the mesh backend's method (core.reference_length
+    on the prepared mesh)."""
     import numpy as np
     from ..core.reference_length import principal_axis_span
     from ..mesh.backend import open_mesh
-    from ..mesh.curvature import vertex_curvature
     data = np.load(path)
     mesh, _ = open_mesh((data["vertices"], data["faces"]))
-    V, F = np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)
-    value = float(principal_axis_span(V, vertex_curvature(V, F).vertex_area))
+    value = float(principal_axis_span(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)))
     return value, value
 
 

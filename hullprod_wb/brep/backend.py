@@ -147,8 +147,8 @@ class BrepRun:
         samples = self.lref_samples()
         if samples is None:
             raise InputError("the faces could not be sampled (no tessellation): empty or invalid faces")
-        self.ref = resolve_reference_length(samples["points"], samples["node_area"], explicit=lref,
-                                            units=self.shape.units.get("working_unit", ""))
+        self.ref = resolve_reference_length(samples["points"], samples["triangles"], samples["node_area"],
+                                            explicit=lref, units=self.shape.units.get("working_unit", ""))
         self.deflection = (self.display_deflection or DISPLAY_DEFLECTION * self.size) if self.with_fields else None
         self.samples_before_quadrature()
         self.thresholds = Thresholds(self.ref.value, h_f, k_f)

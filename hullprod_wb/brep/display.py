@@ -68,11 +68,11 @@ def sample_faces(face_fields, deflection, meshes=None):
 
 
 def tessellation_samples(faces, deflection, tessellation=None):
-    """Points (n, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
+    """Points (n, 3), triangles (m, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
     of Part.Face) at deflection, without fields: all the automatic reference length needs
     (tessellation: an LrefTessellation of them already started; else one made now, in a
     child where forking is safe, so that no mesher thread starts here). Returns a dict with
-    points and node_area, or None when no face has a tessellation."""
+    points, triangles and node_area, or None when no face has a tessellation."""
     tess = tessellation or LrefTessellation(faces, deflection)
     try:
         pts, tris, _ = tess.result()
@@ -82,13 +82,13 @@ def tessellation_samples(faces, deflection, tessellation=None):
 
 
 def node_samples(pts, tris):
-    """dict(points (n, 3), node_area (n,)) of a tessellation given as lref_samples.tessellate_faces
+    """dict(points (n, 3), triangles (m, 3), node_area (n,)) of a tessellation given as lref_samples.tessellate_faces
     gives it (flat x, y, z doubles, flat triangle node indices), or None without triangles."""
     if len(tris) == 0:
         return None
     P = np.frombuffer(pts, dtype=np.float64).reshape(-1, 3)
     T = np.frombuffer(tris, dtype=np.int64).reshape(-1, 3)
-    return {"points": P, "node_area": node_areas(P, T)}
+    return {"points": P, "triangles": T, "node_area": node_areas(P, T)}
 
 
 def node_areas(P, T):

@@ -1,8 +1,8 @@
 """Nodes of the tessellation that gives the automatic reference length (paper eq:refs).
 
 OpenCascade tessellates the faces at SAMPLE_DEFLECTION of the shape's bounding-box diagonal
-(whatever the display settings); the area-weighted nodes then give the principal-axis
-span (core.reference_length). The tessellation holds the interpreter while it runs, and on
+(whatever the display settings); the area moments of its triangles then give the
+principal-axis span (core.reference_length). The tessellation holds the interpreter while it runs, and on
 FreeCAD 1.x starts OpenCascade's thread pool in the process that runs it, so it runs in a
 child forked where forking is safe (LrefTessellation; read_and_start starts it right after
 loading a file), which works beside the rest of the set-up and hands back the same numbers

@@ -1,8 +1,9 @@
 """Reference length L_ref (paper eq:refs): explicit, or automatic from the surface.
 
-The automatic length is the span of the surface along its first principal axis,
-computed from area-weighted surface samples. It approximates the overall length of the
-represented surface; for a hull it is close to, but not the same as, L_pp.
+The automatic length is the span of the surface along its first principal axis, computed
+from the exact area moments of a triangulation of it (a BRep's coarse tessellation, or
+the mesh itself). It approximates the overall length of the represented surface; for a
+hull it is close to, but not the same as, L_pp.
 """
 from dataclasses import dataclass
 
@@ -12,26 +13,56 @@ from .constants import LREF_PLAUSIBLE_RATIO
 from .errors import InputError
 from .thresholds import check_positive
 
-AUTOMATIC_METHOD = "principal-axis span: extent of the area-weighted surface samples along their first principal axis"
+AUTOMATIC_METHOD = ("principal-axis span: extent of the triangulated surface along the first principal axis of "
+                    "its area (exact area moments of the triangles)")
 
 
-def principal_axis_span(points, weights=None):
-    """Extent of points (n, 3) along the principal axis of largest weighted variance."""
+def principal_axis_span(points, triangles, node_area=None, triangle_area=None):
+    """Extent of points (n, 3) along the first principal axis of the triangulated surface
+    (triangles (m, 3) indices into points): the axis of largest variance of the area measure
+    over the triangles, from its exact moments, integral of x dA = sum_t A_t s_t / 3 and
+    integral of x x^T dA = sum_t A_t / 12 (sum of v v^T over the corners + s_t s_t^T), s_t the
+    sum of triangle t's corners. The moments do not depend on how a plane region is cut
+    into triangles. node_area (sum of A_t / 3 at each node) and triangle_area (A_t): the
+    areas when at hand."""
     P = np.asarray(points, dtype=float).reshape(-1, 3)
-    P = P[np.all(np.isfinite(P), axis=1)]
-    if len(P) < 2:
+    T = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    finite = np.all(np.isfinite(P), axis=1)
+    if np.count_nonzero(finite) < 2:
         raise InputError("cannot derive a reference length: fewer than two finite surface points")
-    w = np.ones(len(P)) if weights is None else np.asarray(weights, dtype=float).reshape(-1)[: len(P)]
-    w = np.where(np.isfinite(w) & (w > 0), w, 0.0)
-    if w.sum() <= 0:
-        w = np.ones(len(P))
-    c = (w[:, None] * P).sum(0) / w.sum()
-    X = P - c
-    cov = (w[:, None] * X).T @ X / w.sum()
+    if finite.all():
+        X = P - P.mean(0)
+    else:
+        X = np.where(finite[:, None], P - P[finite].mean(0), 0.0)
+        T = T[np.all(finite[T], axis=1)]
+        node_area = triangle_area = None
+    a, b, c = (np.take(X, T[:, k], axis=0) for k in range(3))
+    if triangle_area is None:
+        e1, e2 = b - a, c - a
+        area = 0.5 * np.sqrt((e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]) ** 2
+                             + (e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]) ** 2
+                             + (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) ** 2)
+        del e1, e2
+    else:
+        area = np.asarray(triangle_area, dtype=float)
+    total = area.sum()
+    if not total > 0:  # no area: the points' own spread
+        Y = X[finite] - X[finite].mean(0)
+        cov = Y.T @ Y
+    else:
+        if node_area is None:
+            node_area = np.bincount(T.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(P))
+        wX = np.asarray(node_area, dtype=float)[:, None] * X
+        s = a
+        s += b
+        s += c
+        del b, c
+        second = 0.25 * (wX.T @ X) + (s.T @ (s * area[:, None])) / 12.0
+        mean = wX.sum(0) / total
+        cov = second / total - np.outer(mean, mean)
     _, vecs = np.linalg.eigh(cov)
-    axis = vecs[:, -1]
-    s = X @ axis
-    return float(s.max() - s.min())
+    along = X[finite] @ vecs[:, -1]
+    return float(along.max() - along.min())
 
 
 @dataclass
@@ -49,13 +80,14 @@ class ReferenceLength:
                 "automatic_value": self.automatic_value, "plausibility_warning": self.warning or None}
 
 
-def resolve_reference_length(points, weights=None, explicit=None, units=""):
-    """Choose L_ref: the explicit value when given (checked > 0), else the automatic span.
+def resolve_reference_length(points, triangles, node_area=None, explicit=None, units="", triangle_area=None):
+    """Choose L_ref: the explicit value when given (checked > 0), else the automatic span
+    of the triangulated surface (principal_axis_span).
 
     When explicit, the automatic span is still computed and a warning is recorded if the
     ratio of the two lies outside [1/10, 10].
     """
-    auto = principal_axis_span(points, weights)
+    auto = principal_axis_span(points, triangles, node_area, triangle_area)
     if auto <= 0:
         raise InputError("cannot derive a reference length: the surface has zero extent")
     if explicit is None:

@@ -98,8 +98,8 @@ class AnalyzePanel:
         self.auto_radio.setChecked(True)
         self.lref_edit.setEnabled(False)
         self.explicit_radio.toggled.connect(self.lref_edit.setEnabled)
-        self.method_label = QtWidgets.QLabel("<small>method: principal-axis span of the area-weighted "
-                                             "surface samples (paper eq:refs)</small>")
+        self.method_label = QtWidgets.QLabel("<small>method: principal-axis span of the surface's area, "
+                                             "from a tessellation (paper eq:refs)</small>")
         self.method_label.setWordWrap(True)
         self.whole_note = QtWidgets.QLabel()
         self.whole_note.setWordWrap(True)

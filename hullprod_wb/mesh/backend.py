@@ -149,7 +149,8 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
     progress(0.2, "mesh quality")
     quality = mesh_quality(mesh)
     flags = mesh.table.vertex_flags(len(V))
-    del mesh              # the edge table and triangle measures: not needed any more
+    face_area = mesh.measures.area  # for the reference length
+    del mesh              # the edge table and the other triangle measures: not needed any more
     t2 = time.perf_counter()
     timings["quality_s"] = t2 - t1
 
@@ -160,7 +161,7 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
 
     progress(0.8, "signature")
     A = curv.vertex_area
-    rl = resolve_reference_length(V, A, explicit=lref)
+    rl = resolve_reference_length(V, F, A, explicit=lref, triangle_area=face_area)
     th = Thresholds(rl.value, h_f, k_f)
     finite = np.isfinite(curv.K) & np.isfinite(curv.H)
     valid = ~curv.boundary & ~curv.nonmanifold & finite

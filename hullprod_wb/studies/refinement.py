@@ -77,15 +77,12 @@ def brep_lref(brep, lref=None):
     coarse tessellation (the same rule the backends use)."""
     from ..core.reference_length import resolve_reference_length
     if lref is not None:
-        return resolve_reference_length(_coarse_points(brep.shape), explicit=lref)
-    return resolve_reference_length(_coarse_points(brep.shape))
+        return resolve_reference_length(*_coarse_tessellation(brep.shape), explicit=lref)
+    return resolve_reference_length(*_coarse_tessellation(brep.shape))
 
 
-def _coarse_points(shape):
-    V, F = tessellate(shape, 1e-3 * max(shape.BoundBox.DiagonalLength, 1e-300), 0.5)
-    from .sameface import triangle_areas
-    w = np.bincount(F.ravel(), weights=np.repeat(triangle_areas(V, F) / 3.0, 3), minlength=len(V))
-    return V[w > 0]
+def _coarse_tessellation(shape):
+    return tessellate(shape, 1e-3 * max(shape.BoundBox.DiagonalLength, 1e-300), 0.5)
 
 
 def tessellation_ladder(source, lref=None, linear=LINEAR_DEFLECTIONS, angular=ANGULAR_DEFLECTIONS,
