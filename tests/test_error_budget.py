@@ -1,6 +1,6 @@
 """Refinement driven by the error estimates within a point budget, one error budget for the
 whole shape, and the nested-neighbourhood audit's decisions (brep.cubature.integrate with
-depth_limit, brep.backend metric rules, brep.singular.audit_point and probe_side)."""
+depth_limit, brep.metric_rules, brep.singular.audit_point and probe_side)."""
 import math
 from types import SimpleNamespace
 
