@@ -9,6 +9,7 @@ import pytest
 
 from conftest import needs_freecad, shared_hull
 from hullprod_wb.brep.cubature import GROUP_MIN_PATCHES, GROUPS, QUANTITIES, integrate, patch_groups
+from hullprod_wb.brep.cubature.cells import CellSet
 from hullprod_wb.brep.trimmed_domain import (ConicArc2D, FunctionCurve2D, NurbsCurve2D,
                                              TrimmedDomain, solve_bracketed)
 from hullprod_wb.core.errors import InputError
@@ -231,15 +232,12 @@ def _one_mixed_cell(f, tau_H, tau_K, box=(0.0, 1.0, 0.0, 1.0), budget=np.inf):
     from hullprod_wb.brep.cubature.driver import _Integrator
     from hullprod_wb.brep.cubature.pieces import Pieces, _segments
     it = _Integrator(TrimmedDomain.rectangle(0, 1, 0, 1), f, tau_H, tau_K, 5, 1e-4, 2, (), (), None)
-    cell = {k: np.array([x]) for k, x in zip(("s0", "s1", "t0", "t1"), box)}
-    cell["pid"] = np.array([0])
-    cell.update(it._eval_cells(cell))
-    ch = _children(cell)
-    ch.update(it._eval_cells(ch))
+    cell = it._eval_cells(CellSet(np.array([0]), *(np.array([x]) for x in box)))
+    ch = it._eval_cells(_children(cell))
     interp = it._interpolants(cell, ch, np.ones(1, bool), cell, np.full((1, 7), budget))
     mc = it._turn_cells(cell, interp)
     ec, es = it._edge_cuts(mc)
-    pc = Pieces.whole(*_segments(np.concatenate((mc.boxes["s0"], es, mc.boxes["s1"])),
+    pc = Pieces.whole(*_segments(np.concatenate((mc.boxes.s0, es, mc.boxes.s1)),
                                  np.concatenate(([0], ec, [0]))))
     return it, mc, pc
 
@@ -817,7 +815,7 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     own = []
     from hullprod_wb.brep import cubature
     monkeypatch.setattr(cubature.cells, "PREFETCH_CELLS", 3)  # the first cells, then their children
-    n0 = NodePrefetch(d, f, 5).cells[0]["pid"].size
+    n0 = NodePrefetch(d, f, 5).cells[0].size
     s0, s1 = -(-n0 // 3), -(-4 * n0 // 3)  # steps of each level
     for levels, steps in ((0, 0), (1, s0), (2, s0 + s1)):
         p = NodePrefetch(d, f, 5)
@@ -834,7 +832,7 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     with pytest.raises(InputError, match="prefetched"):
         integrate(d, f, TAU_H, TAU_K, prefetch=p)
     p = NodePrefetch(d, f, 5, max_depth=2)  # first cells of another max_depth
-    assert p.cells[0]["pid"].size < n0
+    assert p.cells[0].size < n0
     with pytest.raises(InputError, match="prefetched"):
         integrate(d, f, TAU_H, TAU_K, prefetch=p)
 
@@ -906,7 +904,7 @@ def test_segment_series_roots_and_exact_integrals():
         assert np.allclose(M[k, :p.size], p, atol=1e-13) and not M[k, p.size:].any()
     rng = np.random.default_rng(3)
     # one cell on [0, 2] x [1, 3]; segments t = fixed along sigma (axis "sigma")
-    cells = dict(s0=np.array([0.0]), s1=np.array([2.0]), t0=np.array([1.0]), t1=np.array([3.0]))
+    cells = CellSet(np.zeros(1, int), np.array([0.0]), np.array([2.0]), np.array([1.0]), np.array([3.0]))
     C = rng.normal(size=(1, 3, deg + 1, deg + 1)) / (1.0 + np.arange(deg + 1))[None, None, :, None] ** 2
     # K's series along every segment: chosen below through the fixed t's coefficients
     seg = SegmentField(C, np.array([True]), cells, np.zeros(3, int), np.array([1.5, 2.0, 2.5]), "sigma",
@@ -991,7 +989,7 @@ def test_tangency_points_by_newton_on_the_cell_interpolant():
     D[1, 0], D[1, 3] = -0.5, 0.3
     C = np.zeros((1, 3, deg + 1, deg + 1))
     C[0, 1] = Minv.T @ D @ Minv  # D = M^T C M
-    cells = dict(s0=np.array([0.0]), s1=np.array([4.0]), t0=np.array([1.0]), t1=np.array([2.0]))
+    cells = CellSet(np.zeros(1, int), np.array([0.0]), np.array([4.0]), np.array([1.0]), np.array([2.0]))
     sig = lambda x: 2.0 * (x + 1.0)
     t = lambda y: 1.0 + 0.5 * (y + 1.0)
     one = np.zeros(1, int)
@@ -1031,7 +1029,7 @@ def test_level_intersections_by_newton_on_the_cell_interpolant():
     DH[1, 0], DH[0, 1], DH[0, 2] = 1.0, 0.3, 0.2
     C = np.zeros((1, 3, deg + 1, deg + 1))
     C[0, 1], C[0, 2] = Minv.T @ DK @ Minv, Minv.T @ DH @ Minv
-    cells = dict(s0=np.array([0.0]), s1=np.array([4.0]), t0=np.array([1.0]), t1=np.array([2.0]))
+    cells = CellSet(np.zeros(1, int), np.array([0.0]), np.array([4.0]), np.array([1.0]), np.array([2.0]))
     sig = lambda x: 2.0 * (x + 1.0)
     t = lambda y: 1.0 + 0.5 * (y + 1.0)
     one = np.zeros(1, int)

@@ -3,6 +3,8 @@ halved in both directions up to MIN_INITIAL_CELLS of them), their children, the 
 Gauss nodes of a cell mapped to (u, v), the field at them (on tensor grids where the cell
 lies between constant bounds), the prefetch of the first two levels, and the greedy
 acceptance of cells against an error budget."""
+import dataclasses
+
 import numpy as np
 
 from ...core.errors import InputError
@@ -10,6 +12,70 @@ from ..gauss_rules import gauss_nodes
 from ..nurbs import grid_points
 from ..patches import Patches
 from .settings import ACCEPT_FRACTION, MIN_INITIAL_CELLS, N_SMOOTH, PREFETCH_CELLS
+
+
+@dataclasses.dataclass(frozen=True)
+class CellSet:
+    """Cells of the quadtree, one row a cell in every array: their boxes always, the
+    evaluation's results (_Integrator._eval_cells) and the units' depth and error estimates
+    once they have them (None before). Sliced and joined as whole arrays (take, concat)."""
+
+    #: (n,) int: the patch of each cell
+    pid: np.ndarray
+    #: (n,) the cell's box [s0, s1] x [t0, t1] in its patch's (sigma, t)
+    s0: np.ndarray
+    s1: np.ndarray
+    t0: np.ndarray
+    t1: np.ndarray
+    #: (n, 9) integrals of QUANTITIES (Gauss sums; a unit's: its children's sums or lines)
+    Q: np.ndarray = None
+    #: (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights)
+    err_e: np.ndarray = None
+    #: (n,) bool: the cell may meet a class boundary or K = 0 (a unit: one of its children)
+    mixed: np.ndarray = None
+    #: (n, 3) u, v, |K| J at the sample of largest |K| J
+    peak: np.ndarray = None
+    #: (n,) parameter area
+    pmeas: np.ndarray = None
+    #: (n, o, o) samples J, K, H, regular (index [cell, sigma node, t node])
+    sJ: np.ndarray = None
+    sK: np.ndarray = None
+    sH: np.ndarray = None
+    sreg: np.ndarray = None
+    #: (n,) int: the first cell (of a prefetch) of each cell
+    row: np.ndarray = None
+    #: (n,) int: the level of the unit's children (or of the cell accepted on its own)
+    depth: np.ndarray = None
+    #: (n, 9) the unit's error estimates
+    err: np.ndarray = None
+
+    @property
+    def size(self):
+        return self.pid.size
+
+    def boxes(self):
+        """The cells' boxes alone (the same arrays)."""
+        return CellSet(self.pid, self.s0, self.s1, self.t0, self.t1)
+
+    def take(self, index):
+        """The cells index (a mask, indices or a slice) of every array present."""
+        return CellSet(*(None if v is None else v[index] for v in self._arrays()))
+
+    def with_(self, **arrays):
+        """These cells with the arrays given set (the others kept)."""
+        return dataclasses.replace(self, **arrays)
+
+    @staticmethod
+    def concat(parts):
+        """The cells of parts (CellSets of the same arrays present), one after the other."""
+        columns = zip(*(p._arrays() for p in parts))
+        return CellSet(*(None if c[0] is None else np.concatenate(c) for c in columns))
+
+    def _arrays(self):
+        return [getattr(self, f) for f in _CELL_FIELDS]
+
+
+_CELL_FIELDS = tuple(f.name for f in dataclasses.fields(CellSet))
 
 
 class _Field:
@@ -104,7 +170,7 @@ def _share_area_error(err, Q):
 
 
 def _patch_cells(patches, patch_range=None, max_depth=None):
-    """The quadtree's first cells (dict of (n,) pid, s0, s1, t0, t1) and their level: the
+    """The quadtree's first cells (a CellSet of boxes) and their level: the
     whole of each patch of patch_range (start, stop) (default all), at level 0, halved in
     both directions (_children) until there are MIN_INITIAL_CELLS of them, at most to level
     max_depth - 1 (None: no halving); InputError when the range holds no patch."""
@@ -115,22 +181,22 @@ def _patch_cells(patches, patch_range=None, max_depth=None):
             raise InputError("patch range %r holds none of the domain's %d patches"
                              % (tuple(patch_range), patches.size))
     z, o = np.zeros(pid.size), np.ones(pid.size)
-    cells, level = dict(pid=pid, s0=z, s1=o, t0=z, t1=o), 0
-    while max_depth is not None and cells["pid"].size < MIN_INITIAL_CELLS and level < max_depth - 1:
+    cells, level = CellSet(pid, z, o, z, o), 0
+    while max_depth is not None and cells.size < MIN_INITIAL_CELLS and level < max_depth - 1:
         cells, level = _children(cells), level + 1
     return cells, level
 
 
 def _children(a):
-    """The four children (dict of (4n,) pid, s0, s1, t0, t1) of the cells a, each cell's
+    """The four children (a CellSet of (4n,) boxes) of the cells a (CellSet), each cell's
     children consecutive: (low, low), (high, low), (low, high), (high, high) in (sigma, t)."""
-    sm = 0.5 * (a["s0"] + a["s1"])
-    tm = 0.5 * (a["t0"] + a["t1"])
-    return dict(pid=np.repeat(a["pid"], 4),
-                s0=np.stack((a["s0"], sm, a["s0"], sm), 1).ravel(),
-                s1=np.stack((sm, a["s1"], sm, a["s1"]), 1).ravel(),
-                t0=np.stack((a["t0"], a["t0"], tm, tm), 1).ravel(),
-                t1=np.stack((tm, tm, a["t1"], a["t1"]), 1).ravel())
+    sm = 0.5 * (a.s0 + a.s1)
+    tm = 0.5 * (a.t0 + a.t1)
+    return CellSet(np.repeat(a.pid, 4),
+                   np.stack((a.s0, sm, a.s0, sm), 1).ravel(),
+                   np.stack((sm, a.s1, sm, a.s1), 1).ravel(),
+                   np.stack((a.t0, a.t0, tm, tm), 1).ravel(),
+                   np.stack((tm, tm, a.t1, a.t1), 1).ravel())
 
 
 class NodePrefetch:
@@ -164,23 +230,17 @@ class NodePrefetch:
         if level < len(self.cells):
             c = self.cells[level]
             a = len(self._chunks) * PREFETCH_CELLS
-            k = slice(a, min(a + PREFETCH_CELLS, c["pid"].size))
-            nodes = cell_nodes(self.patches, c["pid"][k], c["s0"][k], c["s1"][k], c["t0"][k], c["t1"][k],
-                               self.x)
+            k = slice(a, min(a + PREFETCH_CELLS, c.size))
+            nodes = cell_nodes(self.patches, c.pid[k], c.s0[k], c.s1[k], c.t0[k], c.t1[k], self.x)
             before = self.f.n_calls
-            values = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c["pid"][k]), *nodes[:2])
+            values = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c.pid[k]), *nodes[:2])
             self._chunks.append((values, nodes, self.f.n_calls - before))
-            if k.stop == c["pid"].size:  # the level is complete
+            if k.stop == c.size:  # the level is complete
                 for out, part in ((self.values, 0), (self.nodes, 1)):
                     out.append(tuple(np.concatenate(v) for v in zip(*(ch[part] for ch in self._chunks))))
                 self.calls.append(sum(ch[2] for ch in self._chunks))
                 self._chunks = []
         return len(self.values) < len(self.cells)
-
-
-def _cat(parts):
-    """Concatenate a list of dicts of arrays key by key."""
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 def cell_nodes(patches, pid, s0, s1, t0, t1, x):
