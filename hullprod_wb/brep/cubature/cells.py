@@ -3,8 +3,6 @@ halved in both directions up to MIN_INITIAL_CELLS of them), their children, the 
 Gauss nodes of a cell mapped to (u, v), the field at them (on tensor grids where the cell
 lies between constant bounds), the prefetch of the first two levels, and the greedy
 acceptance of cells against an error budget."""
-import dataclasses
-
 import numpy as np
 
 from ...core.errors import InputError
@@ -14,40 +12,35 @@ from ..patches import Patches
 from .settings import ACCEPT_FRACTION, MIN_INITIAL_CELLS, N_SMOOTH, PREFETCH_CELLS
 
 
-@dataclasses.dataclass(frozen=True)
-class CellSet:
-    """Cells of the quadtree, one row a cell in every array: their boxes always, the
-    evaluation's results (_Integrator._eval_cells) and the units' depth and error estimates
-    once they have them (None before). Sliced and joined as whole arrays (take, concat)."""
+#: The arrays of a CellSet: the cells' boxes, then those known once evaluated or accepted.
+_BOXES = ("pid", "s0", "s1", "t0", "t1")
+_ARRAYS = _BOXES + ("Q", "err_e", "mixed", "peak", "pmeas", "sJ", "sK", "sH", "sreg", "row", "depth", "err")
 
-    #: (n,) int: the patch of each cell
-    pid: np.ndarray
-    #: (n,) the cell's box [s0, s1] x [t0, t1] in its patch's (sigma, t)
-    s0: np.ndarray
-    s1: np.ndarray
-    t0: np.ndarray
-    t1: np.ndarray
-    #: (n, 9) integrals of QUANTITIES (Gauss sums; a unit's: its children's sums or lines)
-    Q: np.ndarray = None
-    #: (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights)
-    err_e: np.ndarray = None
-    #: (n,) bool: the cell may meet a class boundary or K = 0 (a unit: one of its children)
-    mixed: np.ndarray = None
-    #: (n, 3) u, v, |K| J at the sample of largest |K| J
-    peak: np.ndarray = None
-    #: (n,) parameter area
-    pmeas: np.ndarray = None
-    #: (n, o, o) samples J, K, H, regular (index [cell, sigma node, t node])
-    sJ: np.ndarray = None
-    sK: np.ndarray = None
-    sH: np.ndarray = None
-    sreg: np.ndarray = None
-    #: (n,) int: the first cell (of a prefetch) of each cell
-    row: np.ndarray = None
-    #: (n,) int: the level of the unit's children (or of the cell accepted on its own)
-    depth: np.ndarray = None
-    #: (n, 9) the unit's error estimates
-    err: np.ndarray = None
+
+class CellSet:
+    """Cells of the quadtree, one row a cell in every array (None: not known yet), sliced and
+    joined as whole arrays (take, concat):
+
+    - pid (n,) int: each cell's patch; s0, s1, t0, t1 (n,): its box [s0, s1] x [t0, t1] in
+      the patch's (sigma, t) (always given);
+    - from the evaluation (_Integrator._eval_cells): Q (n, 9) integrals of QUANTITIES (Gauss
+      sums; a unit's: its children's sums or lines), err_e (n, 9) |Q - Q_embedded|
+      (gauss_rules.embedded_weights), mixed (n,) bool: the cell may meet a class boundary or
+      K = 0 (a unit: one of its children), peak (n, 3) u, v, |K| J at the sample of largest
+      |K| J, pmeas (n,) parameter area, and the samples sJ, sK, sH, sreg (n, o, o) of J, K, H,
+      regular (index [cell, sigma node, t node]);
+    - row (n,) int: the first cell (of a prefetch) of each cell;
+    - of accepted or pending units: depth (n,) int, the level of their children (or of the
+      cell accepted on its own), and err (n, 9) their error estimates."""
+
+    __slots__ = _ARRAYS
+
+    def __init__(self, pid, s0, s1, t0, t1, **arrays):
+        self.pid, self.s0, self.s1, self.t0, self.t1 = pid, s0, s1, t0, t1
+        for name in _ARRAYS[5:]:
+            setattr(self, name, arrays.pop(name, None))
+        if arrays:
+            raise TypeError("CellSet has no arrays %s" % ", ".join(sorted(arrays)))
 
     @property
     def size(self):
@@ -59,23 +52,31 @@ class CellSet:
 
     def take(self, index):
         """The cells index (a mask, indices or a slice) of every array present."""
-        return CellSet(*(None if v is None else v[index] for v in self._arrays()))
+        return CellSet._of([None if a is None else a[index] for a in self._arrays()])
 
     def with_(self, **arrays):
         """These cells with the arrays given set (the others kept)."""
-        return dataclasses.replace(self, **arrays)
+        out = CellSet._of([arrays.pop(name, a) for name, a in zip(_ARRAYS, self._arrays())])
+        if arrays:
+            raise TypeError("CellSet has no arrays %s" % ", ".join(sorted(arrays)))
+        return out
 
     @staticmethod
     def concat(parts):
         """The cells of parts (CellSets of the same arrays present), one after the other."""
         columns = zip(*(p._arrays() for p in parts))
-        return CellSet(*(None if c[0] is None else np.concatenate(c) for c in columns))
+        return CellSet._of([None if c[0] is None else np.concatenate(c) for c in columns])
 
     def _arrays(self):
-        return [getattr(self, f) for f in _CELL_FIELDS]
+        return [getattr(self, name) for name in _ARRAYS]
 
-
-_CELL_FIELDS = tuple(f.name for f in dataclasses.fields(CellSet))
+    @staticmethod
+    def _of(arrays):
+        """The CellSet of all its arrays, in _ARRAYS order."""
+        out = object.__new__(CellSet)
+        for name, a in zip(_ARRAYS, arrays):
+            setattr(out, name, a)
+        return out
 
 
 class _Field:
