@@ -715,7 +715,8 @@ def test_turned_lines_follow_level_curves_along_t():
 
     def above(c):  # int over the cell where u > g(v) + c of J, g = 0.3 + 0.1 sin(2 pi v)
         g = lambda v: 0.3 + c + 0.1 * np.sin(2 * np.pi * v)
-        return quad(lambda v: (u1 - g(v)) + 0.25 * v * (u1 ** 2 - g(v) ** 2), v0, v1, epsabs=1e-15, epsrel=1e-13)[0]
+        inner = lambda v: (u1 - g(v)) + 0.25 * v * (u1 ** 2 - g(v) ** 2)
+        return quad(inner, v0, v1, epsabs=1e-15, epsrel=1e-13)[0]
 
     total = (u1 - u0) * (v1 - v0) + 0.125 * (u1 ** 2 - u0 ** 2) * (v1 ** 2 - v0 ** 2)
     ell, sad = above(TAU_K), total - above(-TAU_K)

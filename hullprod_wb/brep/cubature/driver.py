@@ -78,7 +78,8 @@ class _Integrator(LineIntegration, CutSearch):
         self.active, level = _patch_cells(self.patches, patch_range, max_depth)
         self.max_depth = max_depth if max_depth is not None else 0
         if prefetch is not None and (prefetch.order != order or not all(
-                np.array_equal(getattr(prefetch.cells[0], k), getattr(self.active, k)) for k in ("pid", "s0", "t0"))):
+                np.array_equal(getattr(prefetch.cells[0], k), getattr(self.active, k))
+                for k in ("pid", "s0", "t0"))):
             raise InputError("the prefetched nodes are of another order, patch range or max_depth")
         P = self.active.size
         self.n_initial = P
