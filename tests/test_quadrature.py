@@ -9,6 +9,7 @@ import pytest
 
 from conftest import needs_freecad, shared_hull
 from hullprod_wb.brep.cubature import GROUP_MIN_PATCHES, GROUPS, QUANTITIES, integrate, patch_groups
+from hullprod_wb.brep.cubature.cells import CellSet
 from hullprod_wb.brep.pcurves import ConicArc2D, FunctionCurve2D, NurbsCurve2D
 from hullprod_wb.brep.roots import solve_bracketed
 from hullprod_wb.brep.trimmed_domain import TrimmedDomain
@@ -223,24 +224,27 @@ def _flat_corner_reference(g, vH, tau_H, tau_K, J_inner):
     return {"A_flat": A_flat, "A_single": band - A_flat, "A_elliptic": above, "A_saddle": below}, pts
 
 
-def _one_mixed_cell(f, tau_H, tau_K, box=(0.0, 1.0, 0.0, 1.0), budget=np.inf):
-    """The integrator's units for one mixed cell of the unit square's patch, sigma = u and
-    t = v in [s0, s1] x [t0, t1] = box: the integrator, the cell's MixedCells (on its
-    interpolant from its four children's samples when within budget, turned where that
-    suits the level curves) and its first Pieces (the cell cut at the edge crossings)."""
+def _mixed_cell(f, tau_H, tau_K, box=(0.0, 1.0, 0.0, 1.0), budget=np.inf):
+    """The integrator of the unit square's patch (sigma = u, t = v), one cell of it,
+    [s0, s1] x [t0, t1] = box, evaluated (CellSet) and its Interpolants from its four
+    children's samples (used when within budget, a scalar or (1, 7))."""
     from hullprod_wb.brep.cubature.cells import _children
     from hullprod_wb.brep.cubature.driver import _Integrator
-    from hullprod_wb.brep.cubature.pieces import Pieces, _segments
     it = _Integrator(TrimmedDomain.rectangle(0, 1, 0, 1), f, tau_H, tau_K, 5, 1e-4, 2, (), (), None)
-    cell = {k: np.array([x]) for k, x in zip(("s0", "s1", "t0", "t1"), box)}
-    cell["pid"] = np.array([0])
-    cell.update(it._eval_cells(cell))
-    ch = _children(cell)
-    ch.update(it._eval_cells(ch))
-    interp = it._interpolants(cell, ch, np.ones(1, bool), cell, np.full((1, 7), budget))
+    cell = it._eval_cells(CellSet(np.array([0]), *(np.array([x]) for x in box)))
+    ch = it._eval_cells(_children(cell))
+    return it, cell, it._interpolants(cell, ch, np.ones(1, bool), cell, np.broadcast_to(budget, (1, 7)))
+
+
+def _one_mixed_cell(f, tau_H, tau_K, box=(0.0, 1.0, 0.0, 1.0), budget=np.inf):
+    """The integrator's units for one mixed cell (_mixed_cell): the integrator, the cell's
+    MixedCells (on its interpolant when within budget, turned where that suits the level
+    curves) and its first Pieces (the cell cut at the edge crossings)."""
+    from hullprod_wb.brep.cubature.pieces import Pieces, _segments
+    it, cell, interp = _mixed_cell(f, tau_H, tau_K, box, budget)
     mc = it._turn_cells(cell, interp)
     ec, es = it._edge_cuts(mc)
-    pc = Pieces.whole(*_segments(np.concatenate((mc.boxes["s0"], es, mc.boxes["s1"])),
+    pc = Pieces.whole(*_segments(np.concatenate((mc.boxes.s0, es, mc.boxes.s1)),
                                  np.concatenate(([0], ec, [0]))))
     return it, mc, pc
 
@@ -683,56 +687,58 @@ def test_embedded_rule_is_exact_to_degree_n_minus_2():
         assert abs(w @ x ** (n - 1) - 1.0 / n) > 1e-8  # and not beyond (it is the lower rule)
 
 
-def test_turned_lines_follow_level_curves_along_t(monkeypatch):
+def test_turned_lines_follow_level_curves_along_t():
     """The same field as test_class_area_bounded_by_a_curved_threshold_line with u and v
-    exchanged: its level curves run along t, so the mixed cells take their lines along
-    sigma (_Integrator._turn_cells); the class areas keep the closed form to 1e-9 with
-    fewer line evaluations than lines that are not turned (those, nearly parallel to the
-    level curves, are 2e-8 off here: within the tolerance, 1.1e-6 for A_single)."""
-    from hullprod_wb.brep import cubature
+    exchanged: its level curves run along t. A mixed cell on its interpolant in this affine
+    patch takes its lines along sigma (_Integrator._turn_cells: sigma and t exchanged in its
+    box and its interpolant, the constant strip width and du/dsigma kept); without an
+    interpolant it keeps them. On a cell that the curves cross from one t edge to the
+    other, the turned lines meet no edge crossing (the lines not turned: four, each a cut)
+    and give its class areas to 1e-14 within error estimates of 2e-9, where lines not turned,
+    nearly parallel to the curves, are 1e-6 off and do not fit the cell's budget. The whole
+    integration keeps the closed form to 1e-9."""
+    from scipy.integrate import quad
+    from hullprod_wb.brep.cubature.pieces import MixedCells
     f = field_of(lambda u, v: 1 + 0.5 * u * v,
                  lambda u, v: u - 0.3 - 0.1 * np.sin(2 * np.pi * v))
-    d = TrimmedDomain.rectangle(0, 1, 0, 1)
-    turned, lines = [], []
-    turn = cubature.driver._Integrator._turn_cells
-    values = cubature.driver._Integrator._line_values
+    u0, u1, v0, v1 = box = (0.25, 0.5, 0.0, 0.25)  # K = +-tau_K from (0.3, 0) to (0.4, 0.25)
+    budget = np.array([[1e-6] * 3 + [1e-8] * 4])
+    it, cell, interp = _mixed_cell(f, TAU_H, TAU_K, box, budget)
+    assert interp.use.all()
+    turned = it._turn_cells(cell, interp)
+    assert turned.width == pytest.approx([1.0]) and turned.du == pytest.approx([1.0])
+    for a, b in (("s0", "t0"), ("s1", "t1"), ("t0", "s0"), ("t1", "s1")):
+        assert getattr(turned.boxes, a) == getattr(cell, b), a
+    assert np.array_equal(turned.interp.C, np.swapaxes(interp.C, 2, 3))
+    kept = it._turn_cells(cell, dataclasses.replace(interp, use=np.zeros(1, bool)))
+    assert np.isnan(kept.width).all() and kept.boxes.s0 == cell.s0 and kept.boxes.t0 == cell.t0
+    plain = MixedCells(cell.boxes(), np.full(1, np.nan), np.full(1, np.nan), interp)
 
-    def record_turn(self, cells, interp):
-        out = turn(self, cells, interp)
-        turned.append(int(np.isfinite(out.width).sum()))
-        return out
+    def above(c):  # int over the cell where u > g(v) + c of J, g = 0.3 + 0.1 sin(2 pi v)
+        g = lambda v: 0.3 + c + 0.1 * np.sin(2 * np.pi * v)
+        inner = lambda v: (u1 - g(v)) + 0.25 * v * (u1 ** 2 - g(v) ** 2)
+        return quad(inner, v0, v1, epsabs=1e-15, epsrel=1e-13)[0]
 
-    def record_lines(self, mc, cell, pid, sig, t0, t1, n_counted=0):
-        lines.append(pid.size - n_counted)  # the lines integrated
-        return values(self, mc, cell, pid, sig, t0, t1, n_counted)
+    total = (u1 - u0) * (v1 - v0) + 0.125 * (u1 ** 2 - u0 ** 2) * (v1 ** 2 - v0 ** 2)
+    ell, sad = above(TAU_K), total - above(-TAU_K)
+    exact = np.array([0.0, total - ell - sad, ell, sad])  # flat, single, elliptic, saddle
+    assert it._edge_cuts(turned)[1].size == 0 and it._edge_cuts(plain)[1].size == 4
+    val, err, fits, _ = it._lines(turned, budget)
+    assert np.abs(val[0, 3:] - exact).max() <= 1e-14 and err[0, 3:].max() <= 2e-9 and fits.all()
+    val, err, fits, _ = it._lines(plain, budget)
+    assert np.abs(val[0, 3:] - exact).max() > 1e-7 and not fits.any()
+    assert np.all(np.abs(val[0, 3:] - exact) <= err[0, 3:])
+    r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, TAU_K)
 
-    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", record_turn)
-    monkeypatch.setattr(cubature.driver._Integrator, "_line_values", record_lines)
-    r = integrate(d, f, TAU_H, TAU_K)
-    n_turned, n_lines = sum(turned), sum(lines)
-
-    def above(c):  # int_0^1 int_{g + c}^1 J du dv in closed form (u and v exchanged)
+    def whole_above(c):  # int_0^1 int_{g + c}^1 J du dv in closed form
         b = 0.3 + c
         return (1 - b) + 0.25 * (0.5 - b * b / 2 + 0.2 * b / (2 * np.pi) - 0.01 / 4)
 
-    ell, sad = above(TAU_K), (1 + 0.125) - above(-TAU_K)
-    assert n_turned > 0
+    ell, sad = whole_above(TAU_K), (1 + 0.125) - whole_above(-TAU_K)
     assert r.values["A_elliptic"] == pytest.approx(ell, abs=1e-9)
     assert r.values["A_saddle"] == pytest.approx(sad, abs=1e-9)
     assert r.values["A_single"] == pytest.approx(1.125 - ell - sad, abs=1e-9)
     assert r.all_converged
-    turned.clear()
-    lines.clear()
-    # no cell turned: the candidates' interpolants hidden from _turn_cells
-    monkeypatch.setattr(cubature.driver._Integrator, "_turn_cells", lambda self, cells, interp: dataclasses.replace(
-        turn(self, cells, dataclasses.replace(interp, use=np.zeros_like(interp.use))), interp=interp))
-    s = integrate(d, f, TAU_H, TAU_K)
-    assert sum(turned) == 0 and s.all_converged
-    for q, exact in (("A_elliptic", ell), ("A_saddle", sad), ("A_single", 1.125 - ell - sad)):
-        assert s.values[q] == pytest.approx(exact, abs=1e-7), q
-    for q in ("A", "int_abs_K", "int_K_plus", "int_K_minus"):
-        assert s.values[q] == pytest.approx(r.values[q], rel=1e-9), q
-    assert n_lines < sum(lines)
 
 
 def _sign_change_field(a):
@@ -750,26 +756,43 @@ def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch
     """Where the band |K| <= tau_K is narrow (steep K), the lines are not cut at K = 0: a
     single piece where K changes sign takes the sign of its K integral and charges the
     bound tau_K A - |int K J| to the K integrals' error estimates, a small part of the
-    tolerance. The values stay within that bound of the closed form (4e-8 relative here:
-    the band's halves cancel on every line, the worst case); resolving K = 0 (share 0)
-    gives the K integrals' closed form to 1e-10, refining more crossings. Class areas: 1e-9
-    in both."""
+    tolerance. On lines of the field (_Integrator._crossings, _line_values) the crossings
+    of K = 0 are then neither refined nor counted, the lines where K changes sign are
+    marked and charged, and their |K| integral stays within the charge of the closed
+    form; resolving K = 0 (as refine_to does once the charges would not fit) refines them
+    too, 5 more crossings on top of 12 and more field points, and gives the closed form to
+    1e-9 with no charge. The values of the whole integration stay within that bound of the
+    closed form (4e-8 relative here: the band's halves cancel on every line, the worst
+    case); resolving K = 0 (share 0) gives the K integrals' closed form to 1e-10. Class
+    areas: 1e-9 in both."""
+    from scipy.integrate import quad
     from hullprod_wb.brep import cubature
     f, exact = _sign_change_field(10.0)
-    d = TrimmedDomain.rectangle(0, 1, 0, 1)
-    crossings = cubature.driver._Integrator._crossings
-    found = []  # refined crossings on lines
-
-    def record(self, evalf, refine=True):
-        out = crossings(self, evalf, refine)
-        refined = np.broadcast_to(refine, evalf.x0.shape)  # per line: crossings refined, not only counted
-        found.append(int(np.count_nonzero(refined[out[0]])))
-        return out
-
-    monkeypatch.setattr(cubature.driver._Integrator, "_crossings", record)
-    r = integrate(d, f, TAU_H, TAU_K)
-    n_bounded = sum(found)
-    found.clear()
+    it, mc, _ = _one_mixed_cell(f, TAU_H, TAU_K, budget=0.0)  # lines on the field
+    assert not mc.interp.use.any() and not it.resolve_zero
+    sig = np.array([0.45, 0.5, 0.55, 0.7])  # lines u = sig; K changes sign on the first three
+    zero, cell, t0, t1 = sig < 0.6, np.zeros(sig.size, int), np.zeros(sig.size), np.ones(sig.size)
+    line = [quad(lambda v: abs(10.0 * (s - 0.5 - 0.1 * np.sin(2 * np.pi * v))), 0.0, 1.0, epsabs=1e-15,
+                 points=[1 / 12, 5 / 12, 7 / 12, 11 / 12], limit=200)[0] for s in sig]  # int |K| dv
+    refined, points = [], []
+    for resolve in (False, True):
+        it.resolve_zero = resolve
+        n0 = it.f.n_points
+        _, level, _, S = it._crossings(it._segments_t(mc, cell, cell, sig)[0])
+        points.append(it.f.n_points - n0)
+        refined.append(level.size)
+        assert np.array_equal(S["zero"], zero) and np.any(level == 4) == resolve
+        d = it._line_values(mc, cell, cell, sig, t0, t1)
+        assert np.array_equal(d["count"][:, 4] > 0, zero & resolve)
+        if resolve:
+            assert not d["C"].any()
+            assert d["F"][:, 0] == pytest.approx(line, abs=1e-9)
+        else:
+            assert np.array_equal(d["C"] > 0.0, zero)
+            assert np.all(np.abs(d["F"][:, 0] - line) <= d["C"] + 1e-15)
+            assert np.all(d["E"][:, 0] >= d["C"])
+    assert refined == [12, 17] and points[0] < points[1]
+    r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, TAU_K)
     assert not r.zero_resolved and r.zero_charge > 0.0
     assert r.zero_charge <= cubature.driver.ZERO_CHARGE_SHARE * r.tolerances["int_abs_K"]
     assert r.all_converged
@@ -781,11 +804,10 @@ def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch
     for q in ("A_single", "A_elliptic", "A_saddle"):
         assert r.values[q] == pytest.approx(exact[q], abs=1e-9), q
     monkeypatch.setattr(cubature.driver, "ZERO_CHARGE_SHARE", 0.0)
-    s = integrate(d, f, TAU_H, TAU_K)
+    s = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, TAU_K)
     assert s.zero_resolved and s.zero_charge == 0.0 and s.all_converged
     for q, v in exact.items():
         assert s.values[q] == pytest.approx(v, rel=1e-10, abs=1e-9 if q.startswith("A_") else 0.0), q
-    assert 0 < n_bounded < 0.8 * sum(found)
 
 
 def test_sign_changes_of_K_in_a_wide_band_are_resolved():
@@ -818,7 +840,7 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     own = []
     from hullprod_wb.brep import cubature
     monkeypatch.setattr(cubature.cells, "PREFETCH_CELLS", 3)  # the first cells, then their children
-    n0 = NodePrefetch(d, f, 5).cells[0]["pid"].size
+    n0 = NodePrefetch(d, f, 5).cells[0].size
     s0, s1 = -(-n0 // 3), -(-4 * n0 // 3)  # steps of each level
     for levels, steps in ((0, 0), (1, s0), (2, s0 + s1)):
         p = NodePrefetch(d, f, 5)
@@ -835,7 +857,7 @@ def test_prefetched_first_levels_give_the_same_integrals(monkeypatch):
     with pytest.raises(InputError, match="prefetched"):
         integrate(d, f, TAU_H, TAU_K, prefetch=p)
     p = NodePrefetch(d, f, 5, max_depth=2)  # first cells of another max_depth
-    assert p.cells[0]["pid"].size < n0
+    assert p.cells[0].size < n0
     with pytest.raises(InputError, match="prefetched"):
         integrate(d, f, TAU_H, TAU_K, prefetch=p)
 
@@ -907,7 +929,7 @@ def test_segment_series_roots_and_exact_integrals():
         assert np.allclose(M[k, :p.size], p, atol=1e-13) and not M[k, p.size:].any()
     rng = np.random.default_rng(3)
     # one cell on [0, 2] x [1, 3]; segments t = fixed along sigma (axis "sigma")
-    cells = dict(s0=np.array([0.0]), s1=np.array([2.0]), t0=np.array([1.0]), t1=np.array([3.0]))
+    cells = CellSet(np.zeros(1, int), np.array([0.0]), np.array([2.0]), np.array([1.0]), np.array([3.0]))
     C = rng.normal(size=(1, 3, deg + 1, deg + 1)) / (1.0 + np.arange(deg + 1))[None, None, :, None] ** 2
     # K's series along every segment: chosen below through the fixed t's coefficients
     seg = SegmentField(C, np.array([True]), cells, np.zeros(3, int), np.array([1.5, 2.0, 2.5]), "sigma",
@@ -992,7 +1014,7 @@ def test_tangency_points_by_newton_on_the_cell_interpolant():
     D[1, 0], D[1, 3] = -0.5, 0.3
     C = np.zeros((1, 3, deg + 1, deg + 1))
     C[0, 1] = Minv.T @ D @ Minv  # D = M^T C M
-    cells = dict(s0=np.array([0.0]), s1=np.array([4.0]), t0=np.array([1.0]), t1=np.array([2.0]))
+    cells = CellSet(np.zeros(1, int), np.array([0.0]), np.array([4.0]), np.array([1.0]), np.array([2.0]))
     sig = lambda x: 2.0 * (x + 1.0)
     t = lambda y: 1.0 + 0.5 * (y + 1.0)
     one = np.zeros(1, int)
@@ -1032,7 +1054,7 @@ def test_level_intersections_by_newton_on_the_cell_interpolant():
     DH[1, 0], DH[0, 1], DH[0, 2] = 1.0, 0.3, 0.2
     C = np.zeros((1, 3, deg + 1, deg + 1))
     C[0, 1], C[0, 2] = Minv.T @ DK @ Minv, Minv.T @ DH @ Minv
-    cells = dict(s0=np.array([0.0]), s1=np.array([4.0]), t0=np.array([1.0]), t1=np.array([2.0]))
+    cells = CellSet(np.zeros(1, int), np.array([0.0]), np.array([4.0]), np.array([1.0]), np.array([2.0]))
     sig = lambda x: 2.0 * (x + 1.0)
     t = lambda y: 1.0 + 0.5 * (y + 1.0)
     one = np.zeros(1, int)

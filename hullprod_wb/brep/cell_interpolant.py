@@ -40,7 +40,8 @@ def grid_matrices(x):
 def fit_interpolants(parent, children, idx, grid_inverse, parent_vander):
     """Interpolants of J, K, H over the cells parent[idx] from their children's samples.
 
-    parent, children: dicts with samples sJ, sK, sH (n, o, o) and sreg (n, o, o) bool, the
+    parent, children: cells (cubature.cells.CellSet) with samples sJ, sK, sH (n, o, o) and
+    sreg (n, o, o) bool, the
     children of parent i at rows 4 i .. 4 i + 3 (sigma low/t low, sigma high/t low, sigma
     low/t high, sigma high/t high). Returns dict C (m, 3, 2o, 2o); d (m, 3) max |interpolant
     - f| at the parent's nodes for f = J, K, H; dKJ (m,) the same for K J; lo, hi (m, 3) the
@@ -48,15 +49,15 @@ def fit_interpolants(parent, children, idx, grid_inverse, parent_vander):
     o = parent_vander.shape[0]
     m = idx.size
     F = np.empty((m, 3, 2 * o, 2 * o))
-    for f, key in enumerate(("sJ", "sK", "sH")):
-        c = children[key].reshape(-1, 4, o, o)[idx]
+    for f, samples in enumerate((children.sJ, children.sK, children.sH)):
+        c = samples.reshape(-1, 4, o, o)[idx]
         F[:, f, :o, :o], F[:, f, o:, :o] = c[:, 0], c[:, 1]
         F[:, f, :o, o:], F[:, f, o:, o:] = c[:, 2], c[:, 3]
-    reg = children["sreg"].reshape(-1, 4 * o * o)[idx].all(1) & parent["sreg"][idx].reshape(m, -1).all(1)
+    reg = children.sreg.reshape(-1, 4 * o * o)[idx].all(1) & parent.sreg[idx].reshape(m, -1).all(1)
     reg &= np.isfinite(F).reshape(m, -1).all(1)
     C = grid_inverse @ np.where(np.isfinite(F), F, 0.0) @ grid_inverse.T
     S = parent_vander @ C @ parent_vander.T
-    P = np.stack([parent[k][idx] for k in ("sJ", "sK", "sH")], 1)
+    P = np.stack([parent.sJ[idx], parent.sK[idx], parent.sH[idx]], 1)
     with np.errstate(invalid="ignore"):
         d = np.abs(S - P).reshape(m, 3, -1).max(2)
         dKJ = np.abs(S[:, 1] * S[:, 0] - P[:, 1] * P[:, 0]).reshape(m, -1).max(1)
@@ -149,11 +150,11 @@ WINDOW_STEPS = 4
 
 
 def cell_values(C, cells, cell, sig, t):
-    """J, K, H (m,) of the interpolants C (n, 3, 2o, 2o) of cells (dict of (n,) s0, s1, t0,
-    t1) at patch coordinates (sig, t) (m,) of the cells cell (m,)."""
+    """J, K, H (m,) of the interpolants C (n, 3, 2o, 2o) of cells (with (n,) s0, s1, t0,
+    t1: a cubature.cells.CellSet) at patch coordinates (sig, t) (m,) of the cells cell (m,)."""
     deg = C.shape[-1] - 1
-    PX = legendre_vander(_local(sig, cells["s0"][cell], cells["s1"][cell]), deg)
-    PE = legendre_vander(_local(t, cells["t0"][cell], cells["t1"][cell]), deg)
+    PX = legendre_vander(_local(sig, cells.s0[cell], cells.s1[cell]), deg)
+    PE = legendre_vander(_local(t, cells.t0[cell], cells.t1[cell]), deg)
     out = np.empty((cell.size, 3))
     for a in range(0, cell.size, CHUNK):
         b = slice(a, a + CHUNK)
@@ -186,7 +187,7 @@ class SegmentField:
     """J, K, H, regular along segments of mixed cells, for the cubature's line code.
 
     A segment is a line sigma = fixed (axis "t": its parameter x is t) or t = fixed (axis
-    "sigma": x is sigma) of the cell cell (index into cells, a dict of (n,) s0, s1, t0, t1).
+    "sigma": x is sigma) of the cell cell (index into cells, a CellSet: (n,) s0, s1, t0, t1).
     Segments of cells with use[cell] are evaluated on the interpolant's restriction to the
     segment (a Legendre series in x, its coefficients computed once per segment); the
     others by fallback(x, seg) -> (J, K, H, regular) for parameters x of segments seg.
@@ -198,11 +199,11 @@ class SegmentField:
         self.use = use[self.cell]
         c = self.cell
         if axis == "t":
-            a, b = cells["s0"][c], cells["s1"][c]
-            self.x0, self.x1 = cells["t0"][c], cells["t1"][c]
+            a, b = cells.s0[c], cells.s1[c]
+            self.x0, self.x1 = cells.t0[c], cells.t1[c]
         else:
-            a, b = cells["t0"][c], cells["t1"][c]
-            self.x0, self.x1 = cells["s0"][c], cells["s1"][c]
+            a, b = cells.t0[c], cells.t1[c]
+            self.x0, self.x1 = cells.s0[c], cells.s1[c]
         deg = C.shape[-1] - 1
         i = np.nonzero(self.use)[0]
         self.coef = np.zeros((c.size, 3, deg + 1))
@@ -382,8 +383,8 @@ def _newton_in_box(cells, cell, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol, 
     x, y) returns the steps dx, dy of the points act at (x, y). Returns sigma (k,) of the
     points whose last step is below stol in sigma (a scalar or (k,)) and TANGENCY_YTOL in t,
     NaN where a step failed or left the box, or TANGENCY_STEPS did not converge."""
-    s0, s1 = cells["s0"][cell], cells["s1"][cell]
-    t0, t1 = cells["t0"][cell], cells["t1"][cell]
+    s0, s1 = cells.s0[cell], cells.s1[cell]
+    t0, t1 = cells.t0[cell], cells.t1[cell]
     x, y = _local(s_start, s0, s1), _local(t_start, t0, t1)
     xl, xh = _local(np.minimum(s_lo, s_hi), s0, s1), _local(np.maximum(s_lo, s_hi), s0, s1)
     yl, yh = _local(np.minimum(t_lo, t_hi), t0, t1), _local(np.maximum(t_lo, t_hi), t0, t1)

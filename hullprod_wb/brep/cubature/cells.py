@@ -12,6 +12,73 @@ from ..patches import Patches
 from .settings import ACCEPT_FRACTION, MIN_INITIAL_CELLS, N_SMOOTH, PREFETCH_CELLS
 
 
+#: The arrays of a CellSet: the cells' boxes, then those known once evaluated or accepted.
+_BOXES = ("pid", "s0", "s1", "t0", "t1")
+_ARRAYS = _BOXES + ("Q", "err_e", "mixed", "peak", "pmeas", "sJ", "sK", "sH", "sreg", "row", "depth", "err")
+
+
+class CellSet:
+    """Cells of the quadtree, one row a cell in every array (None: not known yet), sliced and
+    joined as whole arrays (take, concat):
+
+    - pid (n,) int: each cell's patch; s0, s1, t0, t1 (n,): its box [s0, s1] x [t0, t1] in
+      the patch's (sigma, t) (always given);
+    - from the evaluation (_Integrator._eval_cells): Q (n, 9) integrals of QUANTITIES (Gauss
+      sums; a unit's: its children's sums or lines), err_e (n, 9) |Q - Q_embedded|
+      (gauss_rules.embedded_weights), mixed (n,) bool: the cell may meet a class boundary or
+      K = 0 (a unit: one of its children), peak (n, 3) u, v, |K| J at the sample of largest
+      |K| J, pmeas (n,) parameter area, and the samples sJ, sK, sH, sreg (n, o, o) of J, K, H,
+      regular (index [cell, sigma node, t node]);
+    - row (n,) int: the first cell (of a prefetch) of each cell;
+    - of accepted or pending units: depth (n,) int, the level of their children (or of the
+      cell accepted on its own), and err (n, 9) their error estimates."""
+
+    __slots__ = _ARRAYS
+
+    def __init__(self, pid, s0, s1, t0, t1, **arrays):
+        self.pid, self.s0, self.s1, self.t0, self.t1 = pid, s0, s1, t0, t1
+        for name in _ARRAYS[5:]:
+            setattr(self, name, arrays.pop(name, None))
+        if arrays:
+            raise TypeError("CellSet has no arrays %s" % ", ".join(sorted(arrays)))
+
+    @property
+    def size(self):
+        return self.pid.size
+
+    def boxes(self):
+        """The cells' boxes alone (the same arrays)."""
+        return CellSet(self.pid, self.s0, self.s1, self.t0, self.t1)
+
+    def take(self, index):
+        """The cells index (a mask, indices or a slice) of every array present."""
+        return CellSet._of([None if a is None else a[index] for a in self._arrays()])
+
+    def with_(self, **arrays):
+        """These cells with the arrays given set (the others kept)."""
+        out = CellSet._of([arrays.pop(name, a) for name, a in zip(_ARRAYS, self._arrays())])
+        if arrays:
+            raise TypeError("CellSet has no arrays %s" % ", ".join(sorted(arrays)))
+        return out
+
+    @staticmethod
+    def concat(parts):
+        """The cells of parts (CellSets of the same arrays present), one after the other."""
+        columns = zip(*(p._arrays() for p in parts))
+        return CellSet._of([None if c[0] is None else np.concatenate(c) for c in columns])
+
+    def _arrays(self):
+        return [getattr(self, name) for name in _ARRAYS]
+
+    @staticmethod
+    def _of(arrays):
+        """The CellSet of all its arrays, in _ARRAYS order."""
+        out = object.__new__(CellSet)
+        for name, a in zip(_ARRAYS, arrays):
+            setattr(out, name, a)
+        return out
+
+
 class _Field:
     """Calls the user's field and normalises its output to (J, K, H, regular) arrays."""
 
@@ -104,7 +171,7 @@ def _share_area_error(err, Q):
 
 
 def _patch_cells(patches, patch_range=None, max_depth=None):
-    """The quadtree's first cells (dict of (n,) pid, s0, s1, t0, t1) and their level: the
+    """The quadtree's first cells (a CellSet of boxes) and their level: the
     whole of each patch of patch_range (start, stop) (default all), at level 0, halved in
     both directions (_children) until there are MIN_INITIAL_CELLS of them, at most to level
     max_depth - 1 (None: no halving); InputError when the range holds no patch."""
@@ -115,22 +182,22 @@ def _patch_cells(patches, patch_range=None, max_depth=None):
             raise InputError("patch range %r holds none of the domain's %d patches"
                              % (tuple(patch_range), patches.size))
     z, o = np.zeros(pid.size), np.ones(pid.size)
-    cells, level = dict(pid=pid, s0=z, s1=o, t0=z, t1=o), 0
-    while max_depth is not None and cells["pid"].size < MIN_INITIAL_CELLS and level < max_depth - 1:
+    cells, level = CellSet(pid, z, o, z, o), 0
+    while max_depth is not None and cells.size < MIN_INITIAL_CELLS and level < max_depth - 1:
         cells, level = _children(cells), level + 1
     return cells, level
 
 
 def _children(a):
-    """The four children (dict of (4n,) pid, s0, s1, t0, t1) of the cells a, each cell's
+    """The four children (a CellSet of (4n,) boxes) of the cells a (CellSet), each cell's
     children consecutive: (low, low), (high, low), (low, high), (high, high) in (sigma, t)."""
-    sm = 0.5 * (a["s0"] + a["s1"])
-    tm = 0.5 * (a["t0"] + a["t1"])
-    return dict(pid=np.repeat(a["pid"], 4),
-                s0=np.stack((a["s0"], sm, a["s0"], sm), 1).ravel(),
-                s1=np.stack((sm, a["s1"], sm, a["s1"]), 1).ravel(),
-                t0=np.stack((a["t0"], a["t0"], tm, tm), 1).ravel(),
-                t1=np.stack((tm, tm, a["t1"], a["t1"]), 1).ravel())
+    sm = 0.5 * (a.s0 + a.s1)
+    tm = 0.5 * (a.t0 + a.t1)
+    return CellSet(np.repeat(a.pid, 4),
+                   np.stack((a.s0, sm, a.s0, sm), 1).ravel(),
+                   np.stack((sm, a.s1, sm, a.s1), 1).ravel(),
+                   np.stack((a.t0, a.t0, tm, tm), 1).ravel(),
+                   np.stack((tm, tm, a.t1, a.t1), 1).ravel())
 
 
 class NodePrefetch:
@@ -164,23 +231,17 @@ class NodePrefetch:
         if level < len(self.cells):
             c = self.cells[level]
             a = len(self._chunks) * PREFETCH_CELLS
-            k = slice(a, min(a + PREFETCH_CELLS, c["pid"].size))
-            nodes = cell_nodes(self.patches, c["pid"][k], c["s0"][k], c["s1"][k], c["t0"][k], c["t1"][k],
-                               self.x)
+            k = slice(a, min(a + PREFETCH_CELLS, c.size))
+            nodes = cell_nodes(self.patches, c.pid[k], c.s0[k], c.s1[k], c.t0[k], c.t1[k], self.x)
             before = self.f.n_calls
-            values = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c["pid"][k]), *nodes[:2])
+            values = values_at_nodes(self.f, self.f.grid, tensor_cells(self.patches, c.pid[k]), *nodes[:2])
             self._chunks.append((values, nodes, self.f.n_calls - before))
-            if k.stop == c["pid"].size:  # the level is complete
+            if k.stop == c.size:  # the level is complete
                 for out, part in ((self.values, 0), (self.nodes, 1)):
                     out.append(tuple(np.concatenate(v) for v in zip(*(ch[part] for ch in self._chunks))))
                 self.calls.append(sum(ch[2] for ch in self._chunks))
                 self._chunks = []
         return len(self.values) < len(self.cells)
-
-
-def _cat(parts):
-    """Concatenate a list of dicts of arrays key by key."""
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 def cell_nodes(patches, pid, s0, s1, t0, t1, x):

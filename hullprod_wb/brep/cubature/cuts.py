@@ -26,11 +26,11 @@ class CutSearch:
         """sigma (k,) where level curves cross the edges t = t0 and t = t1 of the MixedCells
         mc, and the cell (k,) of each: the line values have a kink there."""
         cells = mc.boxes
-        pid = cells["pid"]
+        pid = cells.pid
         n = pid.size
         E = np.concatenate((np.arange(n), np.arange(n)))
-        h = INSIDE * (cells["t1"] - cells["t0"])
-        tE = np.concatenate((cells["t0"] + h, cells["t1"] - h))
+        h = INSIDE * (cells.t1 - cells.t0)
+        tE = np.concatenate((cells.t0 + h, cells.t1 - h))
 
         pe = pid[E]
 
@@ -66,7 +66,7 @@ class CutSearch:
             return p, np.empty(0)
         cells = mc.boxes
         cell = pc.cell[p]
-        t0, t1 = cells["t0"][cell], cells["t1"][cell]
+        t0, t1 = cells.t0[cell], cells.t1[cell]
         gap = tb - ta
         w0 = np.maximum(ta - gap, t0)
         w1 = np.minimum(tb + gap, t1)
@@ -93,7 +93,7 @@ class CutSearch:
                     seg = SegmentField(mc.interp.C, mc.interp.use, cells, cell[ik], sg[k], "t", None)
                     out[k] = seg.window_min(row[ik], offset[ik], sign[ik], w0[ik], w1[ik])
                 else:
-                    c0, c1 = cells["t0"][cell[ik]], cells["t1"][cell[ik]]
+                    c0, c1 = cells.t0[cell[ik]], cells.t1[cell[ik]]
                     out[k] = window_min_of(series[p[ik], line[k], row[ik]], offset[ik], sign[ik],
                                            _local(w0[ik], c0, c1), _local(w1[ik], c0, c1))
             k = np.nonzero(~use[i])[0]
@@ -154,7 +154,7 @@ class CutSearch:
         if p.size == 0:
             return p, np.empty(0)
         tk = ends[p][:, :, :2, :]  # (m, 9 lines, K level, end)
-        z = _local(tk, cells["t0"][cell[p], None, None, None], cells["t1"][cell[p], None, None, None])
+        z = _local(tk, cells.t0[cell[p], None, None, None], cells.t1[cell[p], None, None, None])
         Hs = np.repeat(series[p, :, 2, None, :], 4, axis=2)  # each line's H series, for its 4 crossings
         H = horner(Hs.reshape(-1, deg + 1), z.reshape(-1)).reshape(tk.shape)
         # psi (m, 9, K level, end, H level): g_H at the K crossings, its sign changes between lines
@@ -174,7 +174,7 @@ class CutSearch:
         t_start = tk[i, j, qk, e] + frac * (tk[i, j + 1, qk, e] - tk[i, j, qk, e])
         c = cell[p]
         root = level_intersections(mc.interp.C, cells, c, LEVEL_ROW[qh], self.level_offset[qh],
-                                   LEVEL_ROW[qk], self.level_offset[qk], sa, sb, cells["t0"][c], cells["t1"][c],
+                                   LEVEL_ROW[qk], self.level_offset[qk], sa, sb, cells.t0[c], cells.t1[c],
                                    s_start, t_start, TANGENT_RTOL * (pc.sb - pc.sa)[p])
         inside = _inside_pieces(pc, p, root)
         return p[inside], root[inside]
@@ -215,7 +215,7 @@ class CutSearch:
         cell, x = cell[hit], x[hit]
         if cell.size == 0:
             return np.empty(0, int), np.empty(0)
-        at = cells["s0"][cell] + 0.5 * (x + 1.0) * (cells["s1"][cell] - cells["s0"][cell])
+        at = cells.s0[cell] + 0.5 * (x + 1.0) * (cells.s1[cell] - cells.s0[cell])
         # the piece of each cell that holds the point, away from its ends
         i, p = np.nonzero(pc.cell[None, :] == cell[:, None])
         inside = _inside_pieces(pc, p, at[i])

@@ -36,7 +36,7 @@ from ..cell_interpolant import grid_matrices
 from ..gauss_rules import embedded_weights, gauss_nodes
 from ..patches import Patches
 from ..trimmed_domain import TrimmedDomain
-from .cells import (_Field, _cat, _children, _greedy_accept, _patch_cells, _share_area_error, cell_nodes,
+from .cells import (CellSet, _Field, _children, _greedy_accept, _patch_cells, _share_area_error, cell_nodes,
                     tensor_cells, values_at_nodes)
 from .result import QuadratureResult
 from .settings import (LEVEL_ROW, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS, N_SMOOTH, OWN_SAFETY,
@@ -50,10 +50,13 @@ class _Integrator(LineIntegration, CutSearch):
     """State of one adaptive integration (quadtree over the patches, lines in mixed cells).
 
     Units of the result are accepted parent cells: their four children's Gauss sums give
-    the values, or the lines for the LINE_Q quantities of mixed cells."""
+    the values, or the lines for the LINE_Q quantities of mixed cells. Arguments as
+    integrate's (point_budget: refine_to's, None for none); the first cells are evaluated
+    here."""
 
     def __init__(self, domain, field, tau_H, tau_K, order, rtol, class_max_depth, u_breaks,
-                 v_breaks, progress, patch_range=None, prefetch=None, max_depth=None):
+                 v_breaks, progress, patch_range=None, prefetch=None, max_depth=None, reference=None,
+                 lines=True, point_budget=None):
         self.prefetch = prefetch
         self.f = _Field(field)
         self.tau_H, self.tau_K = tau_H, tau_K
@@ -61,43 +64,43 @@ class _Integrator(LineIntegration, CutSearch):
         self.level_offset = np.array([tau_K, -tau_K, tau_H, -tau_H, 0.0])
         self.order, self.rtol = order, rtol
         self.class_max_depth = class_max_depth
-        self.lines = True
+        self.lines = bool(lines)
         # K = 0 cuts the lines only once the bounds charged instead would not fit
         # (_line_values, refine_to); zero_charge: the bounds charged in accepted cells
         self.resolve_zero = False
         self.zero_charge = 0.0
         self.progress = progress
-        self.reference = np.zeros(NQ)  # see integrate(reference=...)
+        self.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
         self.x, self.w = gauss_nodes(order)
         self.w_embedded = embedded_weights(self.x)
         self._grid_inverse, self._parent_vander = grid_matrices(self.x)
         self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
         self.active, level = _patch_cells(self.patches, patch_range, max_depth)
         self.max_depth = max_depth if max_depth is not None else 0
-        pid = self.active["pid"]
         if prefetch is not None and (prefetch.order != order or not all(
-                np.array_equal(prefetch.cells[0][k], self.active[k]) for k in ("pid", "s0", "t0"))):
+                np.array_equal(getattr(prefetch.cells[0], k), getattr(self.active, k))
+                for k in ("pid", "s0", "t0"))):
             raise InputError("the prefetched nodes are of another order, patch range or max_depth")
-        P = pid.size
+        P = self.active.size
         self.n_initial = P
         self.nonregular = []
         self.n_nonregular = 0
-        self.accepted = []  # dicts of arrays of accepted units, one per level
+        self.accepted = []  # CellSets of accepted units, one per level
         self.err_acc = np.zeros(NQ)
         self.depth = level
         self.pending = None  # units left unaccepted at the last level
         self.budget_spent = False  # refinement stopped by the point budget (refine_to)
-        self.point_budget = None
-        self.active.update(self._eval_cells(self.active, self._prefetched(0)))
+        self.point_budget = None if point_budget is None else int(point_budget)
+        self.active = self._eval_cells(self.active, self._prefetched(0))
         if prefetch is not None:
-            self.active["row"] = np.arange(P)  # the first cell of each active cell (_prefetched)
+            self.active = self.active.with_(row=np.arange(P))  # the first cell of each (_prefetched)
         self.history = []
         self._record_level()
         self.history *= level + 1  # the levels above the first cells': their estimate
 
     def _record_level(self):
         """Append the global estimate (accepted cells plus active cells' Gauss sums)."""
-        Q = sum((p["Q"].sum(0) for p in self.accepted), self.active["Q"].sum(0))
+        Q = sum((p.Q.sum(0) for p in self.accepted), self.active.Q.sum(0))
         self.history.append({q: float(x) for q, x in zip(QUANTITIES, Q)})
 
     def _thresholds(self, K, H):
@@ -133,15 +136,13 @@ class _Integrator(LineIntegration, CutSearch):
         return vals, nodes
 
     def _eval_cells(self, c, prefetched=None):
-        """Tensor Gauss rule on (sigma, t) cells c (dict of (n,) pid, s0, s1, t0, t1), with the
-        field's values at its nodes and the nodes when given (_prefetched; else computed).
+        """Tensor Gauss rule on the (sigma, t) cells c (CellSet), with the field's values at its
+        nodes and the nodes when given (_prefetched; else computed).
 
-        Returns dict Q (n, 9), mixed (n,) bool, peak (n, 3) (u, v, |K| J at the sample of
-        largest |K| J), err_e (n, 9) |Q - Q_embedded| (gauss_rules.embedded_weights), pmeas (n,)
-        parameter area, and the samples sJ, sK, sH, sreg (n, o, o)
-        (index [cell, sigma node, t node])."""
+        Returns the cells c with Q, mixed, peak, err_e, pmeas and the samples sJ, sK, sH,
+        sreg (CellSet)."""
         x, w = self.x, self.w
-        pid, s0, s1, t0, t1 = (c[k] for k in ("pid", "s0", "s1", "t0", "t1"))
+        pid, s0, s1, t0, t1 = c.pid, c.s0, c.s1, c.t0, c.t1
         nc = pid.size
         if prefetched is not None:
             (J, K, H, reg), (U, V, du, lo, hi) = prefetched
@@ -168,8 +169,8 @@ class _Integrator(LineIntegration, CutSearch):
         k = KJ.argmax(1)
         ar = np.arange(nc)
         peak = np.stack((U.reshape(nc, -1)[ar, k], V.reshape(nc, -1)[ar, k], KJ[ar, k]), 1)
-        return dict(Q=Q, err_e=err_e, mixed=self._mixed(cls, K, H, reg), peak=peak,
-                    pmeas=W.sum((1, 2)), sJ=J, sK=K, sH=H, sreg=reg)
+        return c.with_(Q=Q, err_e=err_e, mixed=self._mixed(cls, K, H, reg), peak=peak,
+                       pmeas=W.sum((1, 2)), sJ=J, sK=K, sH=H, sreg=reg)
 
     def _mixed(self, cls, K, H, reg):
         """(n,) bool: cells (n, o, o samples) that may meet a class boundary or K = 0."""
@@ -204,24 +205,24 @@ class _Integrator(LineIntegration, CutSearch):
         scale[2:5] *= self.tau_K
         return self.rtol * np.maximum(np.maximum(np.abs(Q), ZERO_SCALE * scale), self.reference)
 
-    def refine_to(self, depth_limit, point_budget=None):
-        """Refine level by level until converged, depth_limit is reached, or (point_budget)
-        the next level's children would take the field points evaluated beyond point_budget.
-        Only the cells left unaccepted are refined, so the depth grows where the error
-        estimates stay large (a singular corner costs four cells a level)."""
+    def refine_to(self, depth_limit):
+        """Refine level by level until converged, depth_limit is reached, or (point_budget
+        given) the next level's children would take the field points evaluated beyond the
+        point budget. Only the cells left unaccepted are refined, so the depth grows where
+        the error estimates stay large (a singular corner costs four cells a level)."""
         per_cell = self.order * self.order
-        while self.active["pid"].size and self.depth < depth_limit:
+        point_budget = self.point_budget
+        while self.active.size and self.depth < depth_limit:
             self._accept_own()
             a = self.active
-            na = a["pid"].size
+            na = a.size
             if na == 0:
                 break
             if point_budget is not None and self.f.n_points + 4 * na * per_cell > point_budget \
                     and self.pending is not None:
                 self.budget_spent = True
                 break
-            ch = _children(a)
-            ch.update(self._eval_cells(ch, self._prefetched(1, a.get("row"))))
+            ch = self._eval_cells(_children(a), self._prefetched(1, a.row))
             self.depth += 1
             # the last level: the depth limit, or the point budget would not hold the next
             # level's children (at most four a cell refined here)
@@ -229,19 +230,16 @@ class _Integrator(LineIntegration, CutSearch):
                 point_budget is not None and self.f.n_points + 16 * na * per_cell > point_budget)
             if last and self.depth < depth_limit:
                 self.budget_spent = True
-            unit = {k: a[k] for k in ("pid", "s0", "s1", "t0", "t1")}
-            unit["Q"] = ch["Q"].reshape(na, 4, NQ).sum(1)
-            unit["mixed"] = ch["mixed"].reshape(na, 4).any(1)
-            unit["pmeas"] = ch["pmeas"].reshape(na, 4).sum(1)
-            pk = ch["peak"].reshape(na, 4, 3)
-            unit["peak"] = pk[np.arange(na), pk[:, :, 2].argmax(1)]
-            unit["depth"] = np.full(na, self.depth)
-            err = _share_area_error(np.abs(a["Q"] - unit["Q"]), unit["Q"])
-            mixed = unit["mixed"]
+            pk = ch.peak.reshape(na, 4, 3)
+            unit = a.boxes().with_(Q=ch.Q.reshape(na, 4, NQ).sum(1), mixed=ch.mixed.reshape(na, 4).any(1),
+                                   pmeas=ch.pmeas.reshape(na, 4).sum(1),
+                                   peak=pk[np.arange(na), pk[:, :, 2].argmax(1)], depth=np.full(na, self.depth))
+            err = _share_area_error(np.abs(a.Q - unit.Q), unit.Q)
+            mixed = unit.mixed
             err_tree = err.copy()
             if self.lines:
                 err_tree[mixed, 2:N_SMOOTH] = 0.0  # K integrals of mixed cells: from the lines
-            Qtot = sum((p["Q"].sum(0) for p in self.accepted), unit["Q"].sum(0))
+            Qtot = sum((p.Q.sum(0) for p in self.accepted), unit.Q.sum(0))
             tol = self._tolerance(Qtot)
             budget = tol - self.err_acc
             tree_budget = TREE_SAFETY * budget[:N_SMOOTH]
@@ -262,9 +260,9 @@ class _Integrator(LineIntegration, CutSearch):
             lined = mixed & (accept | last) & self.lines
             split = np.zeros(na, bool)  # mixed cells split for their interpolants' sake
             if lined.any():
-                P_tot = sum((p["pmeas"].sum() for p in self.accepted), unit["pmeas"].sum())
-                sub = {k: v[lined] for k, v in unit.items()}
-                share = self._share(sub["Q"], sub["pmeas"], Qtot, P_tot)
+                P_tot = sum((p.pmeas.sum() for p in self.accepted), unit.pmeas.sum())
+                sub = unit.take(lined)
+                share = self._share(sub.Q, sub.pmeas, Qtot, P_tot)
                 lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
                 interp = self._interpolants(a, ch, lined, sub, lbudget)
                 if (not last or (fit_trial and self.depth < self.max_depth)) and not interp.use.all():
@@ -275,17 +273,18 @@ class _Integrator(LineIntegration, CutSearch):
                     split[np.nonzero(lined)[0][~keep]] = True
                     accept[np.nonzero(lined)[0][~keep]] = False
                     lined[lined] = keep
-                    sub = {k: v[keep] for k, v in sub.items()}
+                    sub = sub.take(keep)
                     interp = interp.take(keep)
                     lbudget = lbudget[keep]
             if lined.any():
-                val, lerr, _, charge = self._lines(sub, lbudget, interp)
+                mc = self._turn_cells(sub, interp)
+                val, lerr, _, charge = self._lines(mc, lbudget)
                 if not self.resolve_zero and np.any((self.zero_charge + charge.sum()) * ZERO_CHARGE_PARTS
                                                     > ZERO_CHARGE_SHARE * tol[2:N_SMOOTH]):
                     # the bounds for K = 0 left unresolved would take too much of the K
                     # integrals' tolerance (small K integrals): resolve it from here on
                     self.resolve_zero = True
-                    val, lerr, _, charge = self._lines(sub, lbudget, interp)
+                    val, lerr, _, charge = self._lines(mc, lbudget)
                 # the quadtree's children sums are an independent check of the K integrals:
                 # a discrepancy beyond the line estimate that the quadtree also sees (its own
                 # estimate) marks a rough or singular integrand the lines did not resolve.
@@ -293,10 +292,10 @@ class _Integrator(LineIntegration, CutSearch):
                 # against samples it was not built from), and there the discrepancy is the
                 # Gauss sums' own error at the kink of |K| that the lines remove.
                 kq = slice(2, N_SMOOTH)
-                gap = np.minimum(np.abs(val[:, :3] - sub["Q"][:, kq]), err[lined, kq])
+                gap = np.minimum(np.abs(val[:, :3] - sub.Q[:, kq]), err[lined, kq])
                 gap[interp.use] = 0.0
                 lerr[:, :3] = np.maximum(lerr[:, :3], gap)
-                unit["Q"][lined, LINE_Q] = val
+                unit.Q[lined, LINE_Q] = val
                 err[lined, LINE_Q] = lerr
             if fit_trial:  # every cell a candidate but those split for their interpolants
                 accept = ~split
@@ -304,15 +303,14 @@ class _Integrator(LineIntegration, CutSearch):
             c = np.nonzero(accept)[0]
             if c.size and not np.all(err[c].sum(0) <= budget):
                 accept[c] = _greedy_accept(err[c], budget)
-            unit["err"] = err
+            unit = unit.with_(err=err)
             if accept.any():
                 self.err_acc = self.err_acc + err[accept].sum(0)
-                self.accepted.append({k: v[accept] for k, v in unit.items()})
+                self.accepted.append(unit.take(accept))
                 if lined.any():
                     self.zero_charge += float(charge[accept[lined]].sum())
-            self.pending = {k: v[~accept] for k, v in unit.items()} if last else None
-            r4 = np.repeat(~accept, 4)
-            self.active = {k: v[r4] for k, v in ch.items()}
+            self.pending = unit.take(~accept) if last else None
+            self.active = ch.take(np.repeat(~accept, 4))
             self._record_level()
             if self.progress is not None:
                 self.progress(min(1.0, self.depth / float(depth_limit + 1) if point_budget is None
@@ -326,26 +324,24 @@ class _Integrator(LineIntegration, CutSearch):
         err_e fit greedily in OWN_SAFETY of the remaining budget of every quantity (the
         class areas' errors: the area's, shared by class fraction, as for children sums)."""
         a = self.active
-        n = a["pid"].size
-        cand = ~a["mixed"] & a["sreg"].reshape(n, -1).all(1) & np.isfinite(a["err_e"]).all(1)
+        n = a.size
+        cand = ~a.mixed & a.sreg.reshape(n, -1).all(1) & np.isfinite(a.err_e).all(1)
         if not cand.any():
             return
-        err = _share_area_error(a["err_e"].copy(), a["Q"])
-        Qtot = sum((p["Q"].sum(0) for p in self.accepted), a["Q"].sum(0))
+        err = _share_area_error(a.err_e.copy(), a.Q)
+        Qtot = sum((p.Q.sum(0) for p in self.accepted), a.Q.sum(0))
         budget = OWN_SAFETY * (self._tolerance(Qtot) - self.err_acc)
         ok = np.zeros(n, bool)
         ok[cand] = _greedy_accept(err[cand], budget)
         if not ok.any():
             return
-        unit = {k: a[k][ok] for k in ("pid", "s0", "s1", "t0", "t1", "Q", "mixed", "pmeas", "peak")}
-        unit["depth"] = np.full(int(ok.sum()), self.depth)
-        unit["err"] = err[ok]
-        self.err_acc = self.err_acc + unit["err"].sum(0)
+        unit = a.boxes().take(ok).with_(Q=a.Q[ok], mixed=a.mixed[ok], pmeas=a.pmeas[ok], peak=a.peak[ok],
+                                        depth=np.full(int(ok.sum()), self.depth), err=err[ok])
+        self.err_acc = self.err_acc + unit.err.sum(0)
         self.accepted.append(unit)
-        self.active = {k: v[~ok] for k, v in a.items()}
+        self.active = a.take(~ok)
 
     @staticmethod
-
     def _share(Q, pmeas, Qtot, P_tot):
         """Part (n, 9) of each quantity's tolerance that cells with integrals Q (n, 9) and
         parameter areas pmeas (n,) stand for: half by their quantity's share, half by the
@@ -359,17 +355,18 @@ class _Integrator(LineIntegration, CutSearch):
     def snapshot(self, max_depth, seconds_start):
         """Result of the current state: accepted units plus those left pending."""
         parts = list(self.accepted)
-        if self.pending is not None and self.pending["pid"].size:
+        if self.pending is not None and self.pending.size:
             parts.append(self.pending)
-        units = _cat(parts)
-        Q = units["Q"].sum(0)
-        err = units["err"].sum(0)
+        units = CellSet.concat(parts)
+        Q = units.Q.sum(0)
+        err = units.err.sum(0)
         tol = self._tolerance(Q)
-        pend = self.pending if self.pending is not None else {k: v[:0] for k, v in units.items()}
-        unconv = self.patches.boxes(pend["pid"], pend["s0"], pend["s1"], pend["t0"], pend["t1"])
-        top = np.argsort(-units["peak"][:, 2])[:N_PEAKS]
-        deep = np.nonzero(units["depth"] == units["depth"].max())[0][:N_DEEPEST]
-        deepest = self.patches.boxes(*(units[k][deep] for k in ("pid", "s0", "s1", "t0", "t1")))
+        pend = self.pending if self.pending is not None else units.take(slice(0, 0))
+        unconv = self.patches.boxes(pend.pid, pend.s0, pend.s1, pend.t0, pend.t1)
+        top = np.argsort(-units.peak[:, 2])[:N_PEAKS]
+        deep = np.nonzero(units.depth == units.depth.max())[0][:N_DEEPEST]
+        d = units.take(deep)
+        deepest = self.patches.boxes(d.pid, d.s0, d.s1, d.t0, d.t1)
         nonreg = np.concatenate(self.nonregular) if self.nonregular else np.empty((0, 2))
         return QuadratureResult(
             values={q: float(x) for q, x in zip(QUANTITIES, Q)},
@@ -377,11 +374,11 @@ class _Integrator(LineIntegration, CutSearch):
             tolerances={q: float(x) for q, x in zip(QUANTITIES, tol)},
             converged={q: bool(c) for q, c in zip(QUANTITIES, err <= tol)},
             order=self.order, rtol=self.rtol, max_depth=max_depth,
-            depth_reached=int(units["depth"].max()), n_points=self.f.n_points,
-            n_field_calls=self.f.n_calls, n_cells=4 * int(units["pid"].size),
-            n_initial_cells=self.n_initial, n_mixed_cells=int(units["mixed"].sum()),
+            depth_reached=int(units.depth.max()), n_points=self.f.n_points,
+            n_field_calls=self.f.n_calls, n_cells=4 * int(units.size),
+            n_initial_cells=self.n_initial, n_mixed_cells=int(units.mixed.sum()),
             nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
-            peak_KJ=units["peak"][top], seconds=time.perf_counter() - seconds_start,
+            peak_KJ=units.peak[top], seconds=time.perf_counter() - seconds_start,
             history=list(self.history), zero_resolved=self.resolve_zero,
             zero_charge=self.zero_charge, point_budget=self.point_budget, budget_spent=self.budget_spent,
             deepest_cells=deepest)
@@ -425,12 +422,10 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
                          ">= 0, got %r, %r, %r" % (order, max_depth, class_max_depth))
     start = time.perf_counter()
     it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
-                     u_breaks, v_breaks, progress, patch_range, prefetch, int(max_depth))
-    it.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
-    it.lines = bool(lines)
+                     u_breaks, v_breaks, progress, patch_range, prefetch, int(max_depth), reference, lines,
+                     point_budget if depth_limit is not None else None)
     if depth_limit is not None:
-        it.point_budget = None if point_budget is None else int(point_budget)
-        it.refine_to(int(depth_limit), it.point_budget)
+        it.refine_to(int(depth_limit))
         result = it.snapshot(int(depth_limit), start)
         if progress is not None:
             progress(1.0, "quadrature done: %d points" % it.f.n_points)

@@ -23,8 +23,8 @@ def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
     if int(order) < 3:
         raise InputError("patch_rule() needs order >= 3, got %r" % (order,))
     it = _Integrator(domain, field, 1.0, 1.0, int(order), 1.0, 0, u_breaks, v_breaks, None)
-    values = {q: float(x) for q, x in zip(QUANTITIES, it.active["Q"].sum(0))}
-    bounds = {q: float(x) for q, x in zip(QUANTITIES, it.active["err_e"].sum(0))}
+    values = {q: float(x) for q, x in zip(QUANTITIES, it.active.Q.sum(0))}
+    bounds = {q: float(x) for q, x in zip(QUANTITIES, it.active.err_e.sum(0))}
     return values, bounds
 
 

@@ -89,9 +89,9 @@ class LineIntegration:
         h_band = np.where(low_K, band(2, th) + band(2, -th), 0.0)
         flat_ok = (lo[:, 2] - d[:, 2] <= th) & (hi[:, 2] + d[:, 2] >= -th)
         single_ok = (hi[:, 2] + d[:, 2] > th) | (lo[:, 2] - d[:, 2] < -th)
-        A = np.abs(units["Q"][:, 0])
+        A = np.abs(units.Q[:, 0])
         err = np.empty((m, N_LINE_Q))
-        err[:, :3] = (2.0 * units["pmeas"] * dKJ)[:, None]
+        err[:, :3] = (2.0 * units.pmeas * dKJ)[:, None]
         # columns flat, single, elliptic, saddle: K = +tau_K borders elliptic, K = -tau_K
         # saddle, both border flat or single (whichever |H| allows), H = +-tau_H both
         err[:, 3] = A * (np.where(flat_ok, k_plus + k_minus, 0.0) + h_band)
@@ -100,7 +100,7 @@ class LineIntegration:
         err[:, 6] = A * k_minus
         # and the interpolated J itself, in each class's area
         rel_J = d[:, 0] / np.maximum(np.abs(lo[:, 0]), 1e-300)
-        err[:, 3:] += np.abs(units["Q"][:, N_SMOOTH:]) * rel_J[:, None]
+        err[:, 3:] += np.abs(units.Q[:, N_SMOOTH:]) * rel_J[:, None]
         err = np.where(reg[:, None], err, np.inf)
         use = np.all(err <= INTERPOLANT_SHARE * budget, 1)
         return Interpolants(fit["C"], use, np.where(use[:, None], err, 0.0))
@@ -130,7 +130,7 @@ class LineIntegration:
             J[i], K[i], H[i] = cell_values(interp.C, cells, cell[i], sig[i], t[i])
         i = np.nonzero(~use)[0]
         if i.size:
-            pid = cells["pid"][cell[i]]
+            pid = cells.pid[cell[i]]
             u, _ = self.patches.u_of_sigma(pid, sig[i])
             lo, hi = self.patches.bounds(pid, u)
             J[i], K[i], H[i], reg[i] = self.f(u, lo + t[i] * (hi - lo))
@@ -384,7 +384,7 @@ class LineIntegration:
         (n, 9, 3, d + 1) (without counted, those of the end lines are 0, NaN, NaN and 0)."""
         cells = mc.boxes
         n, m = pc.size, XI9.size
-        cw = (cells["s1"] - cells["s0"])[pc.cell]
+        cw = (cells.s1 - cells.s0)[pc.cell]
         sliver = ((pc.sb - pc.sa) < SLIVER * cw) & (pc.kind == 0)
         nk = np.nonzero(~sliver)[0]
         ns = np.nonzero(sliver)[0]
@@ -399,11 +399,11 @@ class LineIntegration:
         ecell = np.repeat(pc.cell[nk], 2) if counted else np.empty(0, int)
         lsig = np.concatenate((sig[nk, 1:-1].ravel(), sl.ravel(), ends))
         lcell = np.concatenate((np.repeat(pc.cell[nk], m - 2), np.repeat(pc.cell[ns], XI3.size), ecell))
-        lpid = cells["pid"][lcell]
+        lpid = cells.pid[lcell]
         nv = lsig.size - ends.size
         _, ldu = self.patches.u_of_sigma(lpid[:nv], lsig[:nv])
         ldu = mc.turned(lcell[:nv], ldu, "du")
-        d = self._line_values(mc, lcell, lpid, lsig, cells["t0"][lcell], cells["t1"][lcell], n_counted=ends.size)
+        d = self._line_values(mc, lcell, lpid, lsig, cells.t0[lcell], cells.t1[lcell], n_counted=ends.size)
         nkl = nk.size * (m - 2)
         Fk, es, et = (np.zeros((n, N_LINE_Q)) for _ in range(3))
         Fc = np.zeros(n)
@@ -446,12 +446,11 @@ class LineIntegration:
         would meet them at small angles and cross the cell's t edges, each crossing a cut) is
         given with sigma and t exchanged: the box, its interpolant's axes, and the constant
         width and du/dsigma of the original (NaN for the others, see MixedCells.turned). The
-        line integrals of a cell do not depend on the direction of its lines. cells: dict of
-        (n,) pid, s0, s1, t0, t1 (and others, not used); interpolants: their Interpolants.
-        Returns MixedCells."""
-        n = cells["pid"].size
+        line integrals of a cell do not depend on the direction of its lines. cells: CellSet
+        (its boxes used); interpolants: their Interpolants. Returns MixedCells."""
+        n = cells.size
         P = self.patches
-        pid = cells["pid"]
+        pid = cells.pid
         affine = (P.umap[pid] == 0) & (P.lo_piece[pid] < 0) & (P.hi_piece[pid] < 0)
         cand = np.nonzero(interpolants.use & affine)[0]
         turn = np.zeros(n, bool)
@@ -463,7 +462,7 @@ class LineIntegration:
             d_sigma = (Ck.sum(2) * dsize).sum(1)
             d_t = (Ck.sum(1) * dsize).sum(1)
             turn[cand] = d_sigma > d_t
-        boxes = {k: cells[k] for k in ("pid", "s0", "s1", "t0", "t1")}
+        boxes = cells.boxes()
         width = np.full(n, np.nan)
         du_const = np.full(n, np.nan)
         if not turn.any():
@@ -472,18 +471,18 @@ class LineIntegration:
         u, du = P.u_of_sigma(pid[k], np.full(k.size, 0.5))
         lo, hi = P.bounds(pid[k], u)
         width[k], du_const[k] = hi - lo, du
-        for a, b in (("s0", "t0"), ("s1", "t1")):
-            boxes[a], boxes[b] = boxes[a].copy(), boxes[b].copy()
-            boxes[a][k], boxes[b][k] = boxes[b][k], boxes[a][k].copy()
+        s0, s1, t0, t1 = boxes.s0.copy(), boxes.s1.copy(), boxes.t0.copy(), boxes.t1.copy()
+        s0[k], t0[k] = boxes.t0[k], boxes.s0[k]
+        s1[k], t1[k] = boxes.t1[k], boxes.s1[k]
+        boxes = boxes.with_(s0=s0, s1=s1, t0=t0, t1=t1)
         C = interpolants.C.copy()
         C[k] = np.swapaxes(C[k], 2, 3)
         return MixedCells(boxes, width, du_const, Interpolants(C, interpolants.use, interpolants.err))
 
-    def _lines(self, cells, budget, interpolants):
+    def _lines(self, mc, budget):
         """LINE_Q integrals (n, 7), error estimates (n, 7), fit flags (n,) and the part of
         the |K| integral's error estimate charged for unresolved sign changes of K (n,)
-        (_line_values) of mixed cells (dict of (n,) pid, s0, s1, t0, t1) with their
-        Interpolants and error budgets (n, 7).
+        (_line_values) of the MixedCells mc (_turn_cells) with their error budgets (n, 7).
 
         Each cell is cut in sigma at its edge crossings and, as they are found, at
         tangencies of level curves (with a clustered map at those ends, as the square-root
@@ -494,12 +493,11 @@ class LineIntegration:
         or once its accepted errors exceed it, two halves keep more than STALL_RATIO of their
         parent's error, or it holds MAX_PIECES pieces (a singular or rough integrand). A cell
         fits when its total error estimate is within its budget."""
-        mc = self._turn_cells(cells, interpolants)
         nc = mc.size
         out, errs, charged = np.zeros((nc, N_LINE_Q)), np.zeros((nc, N_LINE_Q)), np.zeros(nc)
         ec, es = self._edge_cuts(mc)
         ar = np.arange(nc)
-        cell, sa, sb = _segments(np.concatenate((mc.boxes["s0"], es, mc.boxes["s1"])),
+        cell, sa, sb = _segments(np.concatenate((mc.boxes.s0, es, mc.boxes.s1)),
                                  np.concatenate((ar, ec, ar)))
         pc = Pieces.whole(cell, sa, sb)
         left = budget - mc.interp.err

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cells import CellSet
 from .settings import EDGE_XI, N_LEVELS, PARABOLIC_STEPS
 
 
@@ -30,8 +31,8 @@ class MixedCells:
     """The mixed cells whose lines are integrated, lines along t (turned cells: sigma and t
     exchanged, see LineIntegration._turn_cells), with their interpolants."""
 
-    #: dict of (n,) pid, s0, s1, t0, t1: the cells' patches and boxes in (sigma, t)
-    boxes: dict
+    #: the cells' patches and boxes in (sigma, t) (their boxes alone)
+    boxes: CellSet
     #: (n,) the constant strip width hi - lo of turned cells (NaN: not turned)
     width: np.ndarray
     #: (n,) the constant du/dsigma of turned cells (NaN: not turned)
