@@ -9,7 +9,7 @@ from ...core.errors import InputError
 from ..gauss_rules import gauss_nodes
 from ..nurbs import grid_points
 from ..patches import Patches
-from .settings import ACCEPT_FRACTION, MIN_INITIAL_CELLS, N_SMOOTH, PREFETCH_CELLS
+from .settings import ACCEPT_FRACTION, AREA, CLASS_AREAS, MIN_INITIAL_CELLS, PREFETCH_CELLS
 
 
 #: The arrays of a CellSet: the cells' boxes, then those known once evaluated or accepted.
@@ -165,8 +165,8 @@ def _share_area_error(err, Q):
     cell's class fractions (from its integrals Q (n, 9)): outside mixed cells a class area
     is the area of the cell's one class. A fraction is at most 1 (a cell of no area in
     rounding, or a negative one, would otherwise divide by it)."""
-    frac = Q[:, N_SMOOTH:] / np.maximum(Q[:, :1], 1e-300)
-    err[:, N_SMOOTH:] = err[:, :1] * np.minimum(np.abs(frac), 1.0)
+    frac = Q[:, CLASS_AREAS] / np.maximum(Q[:, AREA, None], 1e-300)
+    err[:, CLASS_AREAS] = err[:, AREA, None] * np.minimum(np.abs(frac), 1.0)
     return err
 
 

@@ -15,7 +15,8 @@ from ..cell_interpolant import (SegmentField, _local, horner, interpolant_extrem
 from ..roots import solve_bracketed
 from .cells import _row_sums
 from .pieces import _inside_pieces, _parabolic_min
-from .settings import INSIDE, LEVEL_ROW, TANGENT_RTOL, TANGENT_STEPS
+from .settings import (CLASS_ELLIPTIC, CLASS_FLAT, CLASS_SADDLE, CLASS_SINGLE, INSIDE, LEVEL_H, LEVEL_K, LEVEL_ROW,
+                       LINE_CLASSES, TANGENT_RTOL, TANGENT_STEPS)
 
 
 class CutSearch:
@@ -153,12 +154,12 @@ class CutSearch:
         p = np.nonzero(ok.any((1, 2)))[0]
         if p.size == 0:
             return p, np.empty(0)
-        tk = ends[p][:, :, :2, :]  # (m, 9 lines, K level, end)
+        tk = ends[p][:, :, LEVEL_K, :]  # (m, 9 lines, K level, end)
         z = _local(tk, cells.t0[cell[p], None, None, None], cells.t1[cell[p], None, None, None])
         Hs = np.repeat(series[p, :, 2, None, :], 4, axis=2)  # each line's H series, for its 4 crossings
         H = horner(Hs.reshape(-1, deg + 1), z.reshape(-1)).reshape(tk.shape)
         # psi (m, 9, K level, end, H level): g_H at the K crossings, its sign changes between lines
-        psi = H[..., None] - self.level_offset[2:4]
+        psi = H[..., None] - self.level_offset[LEVEL_H]
         pos = psi > 0.0
         fin = np.isfinite(psi)
         change = (pos[:, :-1] != pos[:, 1:]) & fin[:, :-1] & fin[:, 1:] & ok[p][:, None, :, :, None]
@@ -192,8 +193,9 @@ class CutSearch:
         cells = mc.boxes
         use = mc.interp.use
         nc = use.size
-        area = _row_sums(pc.cell, F[:, 3:], nc)  # flat, single, elliptic, saddle
-        ell, sad, band = area[:, 2] > 0.0, area[:, 3] > 0.0, area[:, 0] + area[:, 1] > 0.0
+        area = _row_sums(pc.cell, F[:, LINE_CLASSES], nc)
+        ell, sad = area[:, CLASS_ELLIPTIC] > 0.0, area[:, CLASS_SADDLE] > 0.0
+        band = area[:, CLASS_FLAT] + area[:, CLASS_SINGLE] > 0.0
         tk = self.tau_K
         c = np.nonzero(use & ~(ell & sad & band))[0]
         if c.size == 0:

@@ -39,7 +39,8 @@ from ..trimmed_domain import TrimmedDomain
 from .cells import (CellSet, _Field, _children, _greedy_accept, _patch_cells, _share_area_error, cell_nodes,
                     tensor_cells, values_at_nodes)
 from .result import QuadratureResult
-from .settings import (LEVEL_ROW, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS, N_SMOOTH, OWN_SAFETY,
+from .settings import (AREA, K_INTEGRALS, LEVEL_ROW, LINE_K, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS,
+                       N_SMOOTH, OWN_SAFETY,
                        QUANTITIES, STRADDLE_MARGIN, TREE_SAFETY, ZERO_CHARGE_PARTS, ZERO_CHARGE_SHARE,
                        ZERO_SCALE)
 from .cuts import CutSearch
@@ -200,9 +201,9 @@ class _Integrator(LineIntegration, CutSearch):
 
     def _tolerance(self, Q):
         """tol_q = rtol max(|Q_q|, ZERO_SCALE scale_q, reference_q) for all quantities, (9,)."""
-        A = abs(Q[0])
+        A = abs(Q[AREA])
         scale = np.full(NQ, A)
-        scale[2:5] *= self.tau_K
+        scale[K_INTEGRALS] *= self.tau_K
         return self.rtol * np.maximum(np.maximum(np.abs(Q), ZERO_SCALE * scale), self.reference)
 
     def refine_to(self, depth_limit):
@@ -238,7 +239,7 @@ class _Integrator(LineIntegration, CutSearch):
             mixed = unit.mixed
             err_tree = err.copy()
             if self.lines:
-                err_tree[mixed, 2:N_SMOOTH] = 0.0  # K integrals of mixed cells: from the lines
+                err_tree[mixed, K_INTEGRALS] = 0.0  # K integrals of mixed cells: from the lines
             Qtot = sum((p.Q.sum(0) for p in self.accepted), unit.Q.sum(0))
             tol = self._tolerance(Qtot)
             budget = tol - self.err_acc
@@ -280,7 +281,7 @@ class _Integrator(LineIntegration, CutSearch):
                 mc = self._turn_cells(sub, interp)
                 val, lerr, _, charge = self._lines(mc, lbudget)
                 if not self.resolve_zero and np.any((self.zero_charge + charge.sum()) * ZERO_CHARGE_PARTS
-                                                    > ZERO_CHARGE_SHARE * tol[2:N_SMOOTH]):
+                                                    > ZERO_CHARGE_SHARE * tol[K_INTEGRALS]):
                     # the bounds for K = 0 left unresolved would take too much of the K
                     # integrals' tolerance (small K integrals): resolve it from here on
                     self.resolve_zero = True
@@ -291,10 +292,10 @@ class _Integrator(LineIntegration, CutSearch):
                 # Cells on an interpolant have passed a sharper check (the interpolant
                 # against samples it was not built from), and there the discrepancy is the
                 # Gauss sums' own error at the kink of |K| that the lines remove.
-                kq = slice(2, N_SMOOTH)
-                gap = np.minimum(np.abs(val[:, :3] - sub.Q[:, kq]), err[lined, kq])
+                kq = K_INTEGRALS
+                gap = np.minimum(np.abs(val[:, LINE_K] - sub.Q[:, kq]), err[lined, kq])
                 gap[interp.use] = 0.0
-                lerr[:, :3] = np.maximum(lerr[:, :3], gap)
+                lerr[:, LINE_K] = np.maximum(lerr[:, LINE_K], gap)
                 unit.Q[lined, LINE_Q] = val
                 err[lined, LINE_Q] = lerr
             if fit_trial:  # every cell a candidate but those split for their interpolants
@@ -348,7 +349,7 @@ class _Integrator(LineIntegration, CutSearch):
         mean of their area and parameter-area shares."""
         with np.errstate(divide="ignore", invalid="ignore"):
             own = np.nan_to_num(np.abs(Q) / np.abs(Qtot)[None, :], nan=0.0, posinf=0.0)
-        place = 0.5 * (np.maximum(Q[:, 0], 0.0) / max(abs(Qtot[0]), 1e-300)
+        place = 0.5 * (np.maximum(Q[:, AREA], 0.0) / max(abs(Qtot[AREA]), 1e-300)
                        + pmeas / max(P_tot, 1e-300))
         return 0.5 * (np.minimum(own, 1.0) + place[:, None])
 

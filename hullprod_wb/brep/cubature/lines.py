@@ -46,8 +46,9 @@ from ..patches import cluster_map
 from ..roots import solve_bracketed
 from .cells import _greedy_accept, _row_sums
 from .pieces import Interpolants, MixedCells, Pieces, _count_and_pairs, _halve_pieces, _parabolic_min, _segments, _split_pieces
-from .settings import (CROSSING_RTOL, CROSSING_STEPS, DIP_FRACTION, INTERPOLANT_SHARE, LEVEL_ROW, MAX_PIECES,
-                       M_HI, M_LO, N_LEVELS, N_LINE_Q, N_SMOOTH, SHORT_PIECE, SLIVER, STALL_RATIO, XI3, XI9,
+from .settings import (AREA, CLASS_AREAS, CLASS_ELLIPTIC, CLASS_FLAT, CLASS_SADDLE, CLASS_SINGLE, CROSSING_RTOL,
+                       CROSSING_STEPS, DIP_FRACTION, INTERPOLANT_SHARE, LEVEL_ROW, LINE_CLASSES, LINE_K, MAX_PIECES,
+                       M_HI, M_LO, N_LEVELS, N_LINE_Q, SHORT_PIECE, SLIVER, STALL_RATIO, XI3, XI9,
                        ZERO_BOUND_SAFETY, ZERO_CHARGE_PARTS, ZS)
 
 
@@ -89,18 +90,19 @@ class LineIntegration:
         h_band = np.where(low_K, band(2, th) + band(2, -th), 0.0)
         flat_ok = (lo[:, 2] - d[:, 2] <= th) & (hi[:, 2] + d[:, 2] >= -th)
         single_ok = (hi[:, 2] + d[:, 2] > th) | (lo[:, 2] - d[:, 2] < -th)
-        A = np.abs(units.Q[:, 0])
+        A = np.abs(units.Q[:, AREA])
         err = np.empty((m, N_LINE_Q))
-        err[:, :3] = (2.0 * units.pmeas * dKJ)[:, None]
+        err[:, LINE_K] = (2.0 * units.pmeas * dKJ)[:, None]
+        cls = err[:, LINE_CLASSES]
         # columns flat, single, elliptic, saddle: K = +tau_K borders elliptic, K = -tau_K
         # saddle, both border flat or single (whichever |H| allows), H = +-tau_H both
-        err[:, 3] = A * (np.where(flat_ok, k_plus + k_minus, 0.0) + h_band)
-        err[:, 4] = A * (np.where(single_ok, k_plus + k_minus, 0.0) + h_band)
-        err[:, 5] = A * k_plus
-        err[:, 6] = A * k_minus
+        cls[:, CLASS_FLAT] = A * (np.where(flat_ok, k_plus + k_minus, 0.0) + h_band)
+        cls[:, CLASS_SINGLE] = A * (np.where(single_ok, k_plus + k_minus, 0.0) + h_band)
+        cls[:, CLASS_ELLIPTIC] = A * k_plus
+        cls[:, CLASS_SADDLE] = A * k_minus
         # and the interpolated J itself, in each class's area
         rel_J = d[:, 0] / np.maximum(np.abs(lo[:, 0]), 1e-300)
-        err[:, 3:] += np.abs(units.Q[:, N_SMOOTH:]) * rel_J[:, None]
+        cls += np.abs(units.Q[:, CLASS_AREAS]) * rel_J[:, None]
         err = np.where(reg[:, None], err, np.inf)
         use = np.all(err <= INTERPOLANT_SHARE * budget, 1)
         return Interpolants(fit["C"], use, np.where(use[:, None], err, 0.0))

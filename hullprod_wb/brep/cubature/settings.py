@@ -13,18 +13,32 @@ QUANTITIES = ("A", "A_valid", "int_abs_K", "int_K_plus", "int_K_minus",
 NQ = len(QUANTITIES)
 
 
+#: Positions in the value arrays: the area, the K integrals (int |K|, int K+, int K-) and
+#: the class areas (flat, single, elliptic, saddle; in a block of them, CLASS_FLAT ...).
+AREA = QUANTITIES.index("A")
+K_INTEGRALS = slice(QUANTITIES.index("int_abs_K"), QUANTITIES.index("int_K_minus") + 1)
+CLASS_AREAS = slice(QUANTITIES.index("A_flat"), NQ)
+CLASS_FLAT, CLASS_SINGLE, CLASS_ELLIPTIC, CLASS_SADDLE = range(4)
+
+
 #: Quantities integrated on lines in mixed cells (K integrals and class areas), and
 #: the number of level functions whose crossings cut the lines.
-LINE_Q = slice(2, 9)
+LINE_Q = slice(K_INTEGRALS.start, CLASS_AREAS.stop)
 
 
-N_LINE_Q = 7
+N_LINE_Q = LINE_Q.stop - LINE_Q.start
 
 
 N_LEVELS = 5
 
 
-N_SMOOTH = 5
+#: The quantities before the class areas: integrated on the quadtree alone.
+N_SMOOTH = CLASS_AREAS.start
+
+
+#: The same positions within the LINE_Q columns of line values.
+LINE_K = slice(K_INTEGRALS.start - LINE_Q.start, K_INTEGRALS.stop - LINE_Q.start)
+LINE_CLASSES = slice(CLASS_AREAS.start - LINE_Q.start, N_LINE_Q)
 
 
 #: Quantities below this fraction of their natural scale (A, tau_K A) count as zero.
@@ -178,5 +192,8 @@ M_HI = piece_weights(ZS)
 M_LO = piece_weights(ZS[1:-1])
 
 
-#: Field row (SegmentField: 0 J, 1 K, 2 H) of each level function of _Integrator._thresholds.
+#: Field row (SegmentField: 0 J, 1 K, 2 H) of each level function of _Integrator._thresholds:
+#: K = +-tau_K (LEVEL_K), H = +-tau_H (LEVEL_H), K = 0.
 LEVEL_ROW = np.array([1, 1, 2, 2, 1])
+LEVEL_K = slice(0, 2)
+LEVEL_H = slice(2, 4)
