@@ -323,7 +323,7 @@ class KZeroToRounding:
     def __call__(self, u, v):
         f = self.ff(u, v)
         K, H = f["K"], f["H"]
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):
             zero = np.abs(K) <= K_ROUNDING * np.finfo(float).eps * np.abs(4.0 * H * H - 2.0 * K)
         if not np.any(zero):
             return f
