@@ -781,16 +781,16 @@ def test_sign_changes_of_K_in_a_narrow_band_are_bounded_not_resolved(monkeypatch
         _, level, _, S = it._crossings(it._segments_t(mc, cell, cell, sig)[0])
         points.append(it.f.n_points - n0)
         refined.append(level.size)
-        assert np.array_equal(S["zero"], zero) and np.any(level == 4) == resolve
+        assert np.array_equal(S.zero, zero) and np.any(level == 4) == resolve
         d = it._line_values(mc, cell, cell, sig, t0, t1)
-        assert np.array_equal(d["count"][:, 4] > 0, zero & resolve)
+        assert np.array_equal(d.crossings.count[:, 4] > 0, zero & resolve)
         if resolve:
-            assert not d["C"].any()
-            assert d["F"][:, 0] == pytest.approx(line, abs=1e-9)
+            assert not d.C.any()
+            assert d.F[:, 0] == pytest.approx(line, abs=1e-9)
         else:
-            assert np.array_equal(d["C"] > 0.0, zero)
-            assert np.all(np.abs(d["F"][:, 0] - line) <= d["C"] + 1e-15)
-            assert np.all(d["E"][:, 0] >= d["C"])
+            assert np.array_equal(d.C > 0.0, zero)
+            assert np.all(np.abs(d.F[:, 0] - line) <= d.C + 1e-15)
+            assert np.all(d.E[:, 0] >= d.C)
     assert refined == [12, 17] and points[0] < points[1]
     r = integrate(TrimmedDomain.rectangle(0, 1, 0, 1), f, TAU_H, TAU_K)
     assert not r.zero_resolved and r.zero_charge > 0.0

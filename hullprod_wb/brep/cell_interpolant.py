@@ -17,6 +17,7 @@ level crossings are refined by safeguarded Newton steps, J and K J are integrate
 (the tangency search of the cubature).
 """
 import functools
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,15 +38,29 @@ def grid_matrices(x):
     return np.linalg.inv(LV(2.0 * grid - 1.0, 2 * o - 1)), LV(2.0 * x - 1.0, 2 * o - 1)
 
 
+class InterpolantFit(NamedTuple):
+    """Interpolants of J, K, H over m cells (fit_interpolants)."""
+
+    #: (m, 3, 2o, 2o) Legendre coefficients of J, K, H
+    C: np.ndarray
+    #: (m, 3) max |interpolant - f| at the parent's nodes for f = J, K, H
+    d: np.ndarray
+    #: (m,) the same for K J
+    dKJ: np.ndarray
+    #: (m, 3) the range of the samples of J, K, H
+    lo: np.ndarray
+    hi: np.ndarray
+    #: (m,) all samples regular and finite
+    reg: np.ndarray
+
+
 def fit_interpolants(parent, children, idx, grid_inverse, parent_vander):
     """Interpolants of J, K, H over the cells parent[idx] from their children's samples.
 
     parent, children: cells (cubature.cells.CellSet) with samples sJ, sK, sH (n, o, o) and
     sreg (n, o, o) bool, the
     children of parent i at rows 4 i .. 4 i + 3 (sigma low/t low, sigma high/t low, sigma
-    low/t high, sigma high/t high). Returns dict C (m, 3, 2o, 2o); d (m, 3) max |interpolant
-    - f| at the parent's nodes for f = J, K, H; dKJ (m,) the same for K J; lo, hi (m, 3) the
-    range of the samples; reg (m,) all samples regular and finite."""
+    low/t high, sigma high/t high). Returns an InterpolantFit."""
     o = parent_vander.shape[0]
     m = idx.size
     F = np.empty((m, 3, 2 * o, 2 * o))
@@ -63,7 +78,7 @@ def fit_interpolants(parent, children, idx, grid_inverse, parent_vander):
         dKJ = np.abs(S[:, 1] * S[:, 0] - P[:, 1] * P[:, 0]).reshape(m, -1).max(1)
     reg &= np.isfinite(d).all(1) & np.isfinite(dKJ)
     vals = np.concatenate((F.reshape(m, 3, -1), P.reshape(m, 3, -1)), 2)
-    return dict(C=C, d=d, dKJ=dKJ, lo=vals.min(2), hi=vals.max(2), reg=reg)
+    return InterpolantFit(C, d, dKJ, vals.min(2), vals.max(2), reg)
 
 
 def _local(x, a, b):

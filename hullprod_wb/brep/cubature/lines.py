@@ -45,7 +45,8 @@ from ..gauss_rules import WK, XK, kronrod_error, legendre_vander
 from ..patches import cluster_map
 from ..roots import solve_bracketed
 from .cells import _greedy_accept, _row_sums
-from .pieces import Interpolants, MixedCells, Pieces, _count_and_pairs, _halve_pieces, _parabolic_min, _segments, _split_pieces
+from .pieces import (Interpolants, LineSamples, LineValues, MixedCells, Pieces, _count_and_pairs, _halve_pieces,
+                     _parabolic_min, _segments, _split_pieces)
 from .settings import (AREA, CLASS_AREAS, CLASS_ELLIPTIC, CLASS_FLAT, CLASS_SADDLE, CLASS_SINGLE, CROSSING_RTOL,
                        CROSSING_STEPS, DIP_FRACTION, INTERPOLANT_SHARE, LEVEL_ROW, LINE_CLASSES, LINE_K, MAX_PIECES,
                        M_HI, M_LO, N_LEVELS, N_LINE_Q, SHORT_PIECE, SLIVER, STALL_RATIO, XI3, XI9,
@@ -76,7 +77,7 @@ class LineIntegration:
         idx = np.nonzero(sel)[0]
         m = idx.size
         fit = fit_interpolants(parent, children, idx, self._grid_inverse, self._parent_vander)
-        d, dKJ, lo, hi, reg = (fit[k] for k in ("d", "dKJ", "lo", "hi", "reg"))
+        d, dKJ, lo, hi, reg = fit.d, fit.dKJ, fit.lo, fit.hi, fit.reg
         tk, th = self.tau_K, self.tau_H
 
         def band(f, lev):
@@ -105,7 +106,7 @@ class LineIntegration:
         cls += np.abs(units.Q[:, CLASS_AREAS]) * rel_J[:, None]
         err = np.where(reg[:, None], err, np.inf)
         use = np.all(err <= INTERPOLANT_SHARE * budget, 1)
-        return Interpolants(fit["C"], use, np.where(use[:, None], err, 0.0))
+        return Interpolants(fit.C, use, np.where(use[:, None], err, 0.0))
 
     def _segments_t(self, mc, cell, pid, sig):
         """SegmentField of the lines sigma = sig (L,) of patches pid (L,) in the cells cell
@@ -150,9 +151,8 @@ class LineIntegration:
         H only matter where |K| <= tau_K and are skipped elsewhere. The brackets are refined
         together (one field call per step of solve_bracketed). refine=False only counts crossings
         (approximate positions from the samples, no further field calls). Returns segment
-        index (k,), level index (k,), x (k,), and the samples: dict of (n, 9) arrays J,
-        KJ (K J; both 0 where not regular), K, H, reg, and zero (n,): K changes sign on the
-        segment by the samples (a sign change, or a dip of K towards zero). Crossings of K = 0
+        index (k,), level index (k,), x (k,), and the samples (LineSamples; zero: K changes
+        sign on the segment by the samples, a sign change or a dip of K towards zero). Crossings of K = 0
         (level 4) are refined and returned only while resolve_zero is set (see _line_values).
         refine may also be an (n,) bool array: per segment."""
         x0, x1 = evalf.x0, evalf.x1
@@ -168,8 +168,7 @@ class LineIntegration:
             G[~reg] = np.nan
             J, KJ = np.where(reg, J, 0.0), np.where(reg, KJ, 0.0)
         G = G.reshape(n, m, N_LEVELS)
-        S = dict(J=J.reshape(n, m), KJ=KJ.reshape(n, m), K=K.reshape(n, m), H=H.reshape(n, m),
-                 reg=reg.reshape(n, m))
+        S = LineSamples(J.reshape(n, m), KJ.reshape(n, m), K.reshape(n, m), H.reshape(n, m), reg.reshape(n, m))
         near = (np.abs(K if every else np.where(reg, K, np.inf)) <= self.tau_K).reshape(n, m)  # H matters
         pos = G > 0.0
         change = pos[:, :-1] != pos[:, 1:]
@@ -179,7 +178,7 @@ class LineIntegration:
         k_change = change[:, :, :2].any(2) | change[:, :, 4]
         h_ok = near[:, :-1] | near[:, 1:] | k_change
         change[:, :, 2:4] &= h_ok[:, :, None]
-        S["zero"] = change[:, :, 4].any(1)  # K changes sign between samples
+        S.zero = change[:, :, 4].any(1)  # K changes sign between samples
         change[:, :, 4] &= self.resolve_zero
         li, j, q = np.nonzero(change)
         a, b, fa, fb = xs[li, j], xs[li, j + 1], G[li, j, q], G[li, j + 1, q]
@@ -209,7 +208,7 @@ class LineIntegration:
         # K dipping towards zero may change sign twice between samples: searched only while
         # K = 0 is resolved
         z4 = pq[cand] == 4
-        S["zero"][pi[cand[z4]]] = True
+        S.zero[pi[cand[z4]]] = True
         if not self.resolve_zero:
             cand = cand[~z4]
         # segments only counted: every dip whose parabola's vertex is beyond zero, the
@@ -261,12 +260,9 @@ class LineIntegration:
         integrated: their crossings are only counted (_crossings with refine False; their
         F, E, C are zero).
 
-        Returns dict F (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt, E (L, 7)
-        their error estimates, C (L,) the bound charged to E's |K| column for sign changes
-        of K left unresolved (below; half of it to K+ and K-), count (L, 5) crossings of each
-        level, pair (L, 5, 2) the closest two crossings of each level (NaN when fewer than
-        two), ends (L, 5, 2) the first and last crossing of each level (_count_and_pairs). The pieces of a line between crossings have the class and the sign of K of
-        their midpoint; unless resolve_zero is set, K = 0 does not cut the lines, and flat
+        Returns their LineValues (crossings: _count_and_pairs). The pieces of a line between
+        crossings have the class and the sign of K of their midpoint; unless resolve_zero is
+        set, K = 0 does not cut the lines, and flat
         and single pieces take the sign of their K integral instead. On lines of an
         interpolant J and K J are integrated exactly (SegmentField.integrals, no error
         estimate of their own); on lines of the field by Gauss-Kronrod 3/7 on pieces longer
@@ -299,11 +295,11 @@ class LineIntegration:
         J, K, H, reg = evalf(tq, lq_)
         # node values of long and whole pieces (7 each), then the other pieces' midpoints
         inner = (lid[whole], slice(1, -1))
-        J = np.concatenate((np.where(reg, J, 0.0)[:nl * XK.size], S["J"][inner].ravel(),
+        J = np.concatenate((np.where(reg, J, 0.0)[:nl * XK.size], S.J[inner].ravel(),
                             np.where(reg, J, 0.0)[nl * XK.size:]))
-        Kc = np.concatenate((K[:nl * XK.size], S["K"][inner].ravel(), K[nl * XK.size:]))
-        Hc = np.concatenate((H[:nl * XK.size], S["H"][inner].ravel(), H[nl * XK.size:]))
-        rc = np.concatenate((reg[:nl * XK.size], S["reg"][inner].ravel(), reg[nl * XK.size:]))
+        Kc = np.concatenate((K[:nl * XK.size], S.K[inner].ravel(), K[nl * XK.size:]))
+        Hc = np.concatenate((H[:nl * XK.size], S.H[inner].ravel(), H[nl * XK.size:]))
+        rc = np.concatenate((reg[:nl * XK.size], S.reg[inner].ravel(), reg[nl * XK.size:]))
         KJ = np.where(rc, Kc * J, 0.0)
         mid = np.empty(lid.size, int)  # index of each piece's midpoint value
         kw = np.concatenate((np.nonzero(long_)[0], np.nonzero(whole)[0]))
@@ -328,7 +324,7 @@ class LineIntegration:
             at[fk] = np.arange(fk.size)
             ikw, ish = at[kw], at[sh]
             scale = (b[kw] - a[kw]) * width[lid[kw]]
-            for row, (f, Z) in enumerate(((J, S["J"]), (KJ, S["KJ"]))):
+            for row, (f, Z) in enumerate(((J, S.J), (KJ, S.KJ))):
                 fz = Z[lf]
                 interp = np.einsum("sm,sm->s", w_hi, fz)
                 # long and whole pieces: Kronrod value, error estimated against the interpolant
@@ -347,9 +343,9 @@ class LineIntegration:
             # or ZERO_BOUND_SAFETY times the line's largest sampled |K| when less), A its area
             soft = (cls == 0) | (cls == 1)
             sk = np.where(soft, np.sign(vals[1]), sk)
-            i = np.nonzero(soft & S["zero"][lid])[0]
+            i = np.nonzero(soft & S.zero[lid])[0]
             if i.size:
-                kmax = np.where(S["reg"], np.abs(S["K"]), 0.0).max(1)
+                kmax = np.where(S.reg, np.abs(S.K), 0.0).max(1)
                 bound = np.minimum(self.tau_K, ZERO_BOUND_SAFETY * kmax[lid[i]])
                 charge[i] = np.maximum(bound * vals[0, i] - np.abs(vals[1, i]), 0.0)
         # per piece: |K| J, max(K,0) J, max(-K,0) J, then J into its class column
@@ -360,14 +356,12 @@ class LineIntegration:
             Pe[:, col] = np.abs(fac) * errs[1] + ZERO_CHARGE_PARTS[col] * charge
         ok = cls >= 0
         rows = np.nonzero(ok)[0]
-        P[rows, 3 + cls[ok]] = vals[0][ok]
-        Pe[rows, 3 + cls[ok]] = errs[0][ok]
+        P[rows, LINE_CLASSES.start + cls[ok]] = vals[0][ok]
+        Pe[rows, LINE_CLASSES.start + cls[ok]] = errs[0][ok]
         F, E = np.zeros((L, N_LINE_Q)), np.zeros((L, N_LINE_Q))
         F += _row_sums(lid, P, L)
         E += _row_sums(lid, Pe, L)
-        out = dict(F=F, E=E, C=np.bincount(lid, weights=charge, minlength=L), power=evalf.power)
-        out.update(counts)
-        return out
+        return LineValues(F, E, np.bincount(lid, weights=charge, minlength=L), evalf.power, counts)
 
     def _piece_values(self, mc, pc, counted=True):
         """Gauss-Kronrod 3/7 in sigma over the Pieces pc of the MixedCells mc; nodes cluster_map(kind) of XI9: the Kronrod nodes, and (with
@@ -411,33 +405,34 @@ class LineIntegration:
         Fc = np.zeros(n)
         if nk.size:
             wt = (w[nk] * dc[:, 1:-1] * ldu[:nkl].reshape(nk.size, m - 2))[:, :, None]
-            F = d["F"][:nkl].reshape(nk.size, m - 2, N_LINE_Q) * wt
+            F = d.F[:nkl].reshape(nk.size, m - 2, N_LINE_Q) * wt
             Fk[nk] = np.einsum("nkq,k->nq", F, WK)
             es[nk] = kronrod_error(F, Fk[nk])
-            et[nk] = np.einsum("nkq,k->nq", d["E"][:nkl].reshape(nk.size, m - 2, N_LINE_Q) * wt, WK)
-            Fc[nk] = (d["C"][:nkl].reshape(nk.size, m - 2) * wt[:, :, 0]) @ WK
+            et[nk] = np.einsum("nkq,k->nq", d.E[:nkl].reshape(nk.size, m - 2, N_LINE_Q) * wt, WK)
+            Fc[nk] = (d.C[:nkl].reshape(nk.size, m - 2) * wt[:, :, 0]) @ WK
         if ns.size:
             wt = (w[ns] * ldu[nkl:nv].reshape(ns.size, XI3.size))[:, :, None]
-            F = d["F"][nkl:nv].reshape(ns.size, XI3.size, N_LINE_Q) * wt
+            F = d.F[nkl:nv].reshape(ns.size, XI3.size, N_LINE_Q) * wt
             Fk[ns] = 0.5 * (F[:, 0] + F[:, 2])
             es[ns] = np.abs(Fk[ns] - F[:, 1])
-            et[ns] = 0.5 * (d["E"][nkl:nv].reshape(ns.size, XI3.size, N_LINE_Q) * wt)[:, [0, 2]].sum(1)
-            Fc[ns] = 0.5 * (d["C"][nkl:nv].reshape(ns.size, XI3.size) * wt[:, :, 0])[:, [0, 2]].sum(1)
+            et[ns] = 0.5 * (d.E[nkl:nv].reshape(ns.size, XI3.size, N_LINE_Q) * wt)[:, [0, 2]].sum(1)
+            Fc[ns] = 0.5 * (d.C[nkl:nv].reshape(ns.size, XI3.size) * wt[:, :, 0])[:, [0, 2]].sum(1)
         count = np.zeros((n, m, N_LEVELS), int)
         pair = np.full((n, m, N_LEVELS, 2), np.nan)
         ends = np.full((n, m, N_LEVELS, 2), np.nan)
-        series = np.zeros((n, m) + d["power"].shape[1:])  # of the lines on interpolants
+        series = np.zeros((n, m) + d.power.shape[1:])  # of the lines on interpolants
         if nk.size:
-            count[nk, 1:-1] = d["count"][:nkl].reshape(nk.size, m - 2, -1)
-            pair[nk, 1:-1] = d["pair"][:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
-            ends[nk, 1:-1] = d["ends"][:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
-            series[nk, 1:-1] = d["power"][:nkl].reshape((nk.size, m - 2) + series.shape[2:])
+            cr = d.crossings
+            count[nk, 1:-1] = cr.count[:nkl].reshape(nk.size, m - 2, -1)
+            pair[nk, 1:-1] = cr.pair[:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
+            ends[nk, 1:-1] = cr.ends[:nkl].reshape(nk.size, m - 2, N_LEVELS, 2)
+            series[nk, 1:-1] = d.power[:nkl].reshape((nk.size, m - 2) + series.shape[2:])
         if nk.size and counted:
-            e = {k: d[k][nv:] for k in ("count", "pair", "ends", "power")}
-            count[nk, 0], count[nk, -1] = e["count"][0::2], e["count"][1::2]
-            pair[nk, 0], pair[nk, -1] = e["pair"][0::2], e["pair"][1::2]
-            ends[nk, 0], ends[nk, -1] = e["ends"][0::2], e["ends"][1::2]
-            series[nk, 0], series[nk, -1] = e["power"][0::2], e["power"][1::2]
+            e, power = d.crossings.take(slice(nv, None)), d.power[nv:]
+            count[nk, 0], count[nk, -1] = e.count[0::2], e.count[1::2]
+            pair[nk, 0], pair[nk, -1] = e.pair[0::2], e.pair[1::2]
+            ends[nk, 0], ends[nk, -1] = e.ends[0::2], e.ends[1::2]
+            series[nk, 0], series[nk, -1] = power[0::2], power[1::2]
         return Fk, es, et, Fc, sig, count, pair, ends, series
 
     def _turn_cells(self, cells, interpolants):

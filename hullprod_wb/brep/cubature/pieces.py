@@ -3,11 +3,54 @@ the mixed cells with their interpolants, segments of a line between cuts, crossi
 halved between parameters, and a parabolic search for the extremum of a level function
 between samples."""
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from .cells import CellSet
 from .settings import EDGE_XI, N_LEVELS, PARABOLIC_STEPS
+
+
+class LineCrossings(NamedTuple):
+    """Crossings of the level functions on lines (_count_and_pairs)."""
+
+    #: (L, 5) crossings of each level on each line
+    count: np.ndarray
+    #: (L, 5, 2) the closest two crossings of each level (NaN when fewer than two)
+    pair: np.ndarray
+    #: (L, 5, 2) the first and last crossing of each level (NaN when none)
+    ends: np.ndarray
+
+    def take(self, index):
+        """The crossings of the lines index (a slice, mask or indices)."""
+        return LineCrossings(self.count[index], self.pair[index], self.ends[index])
+
+
+class LineSamples:
+    """The field at the samples ZS of n lines (LineIntegration._crossings): J, K J (both 0
+    where not regular), K, H and reg (n, 9); zero (n,) bool: K changes sign on the line by
+    the samples (set by the crossing search)."""
+
+    __slots__ = ("J", "KJ", "K", "H", "reg", "zero")
+
+    def __init__(self, J, KJ, K, H, reg):
+        self.J, self.KJ, self.K, self.H, self.reg = J, KJ, K, H, reg
+        self.zero = None
+
+
+class LineValues(NamedTuple):
+    """The integrals of L lines (LineIntegration._line_values)."""
+
+    #: (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt
+    F: np.ndarray
+    #: (L, 7) their error estimates
+    E: np.ndarray
+    #: (L,) the bound charged to E's |K| column for sign changes of K left unresolved
+    C: np.ndarray
+    #: the lines' power series on interpolants (SegmentField.power)
+    power: np.ndarray
+    #: the crossings of each level on each line
+    crossings: LineCrossings
 
 
 @dataclass(frozen=True)
@@ -118,7 +161,7 @@ def _count_and_pairs(line, level, roots, L):
         k = k[np.lexsort((r[k + 1] - r[k], key[k]))]
         k = k[np.r_[True, key[k][1:] != key[k][:-1]]]
         pair.reshape(-1, 2)[key[k]] = np.stack((r[k], r[k + 1]), 1)
-    return dict(count=count, pair=pair, ends=ends)
+    return LineCrossings(count, pair, ends)
 
 
 def _parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
