@@ -243,8 +243,9 @@ def main(argv=None):
 def exit_now(code):
     """End the command with exit status code: run the atexit functions, flush the output and
     leave without the interpreter's teardown (which frees every module and object one by
-    one, a cost that grows with numpy, FreeCAD and OpenCascade loaded). The command's files are closed when written (result.save,
-    batch.table flushes every row); no thread of its own outlives main()."""
+    one, a cost that grows with numpy, FreeCAD and OpenCascade loaded). The command's files
+    are closed when written (result.save, batch.table flushes every row); no thread of its
+    own outlives main()."""
     code = 0 if code is None else int(code)
     import atexit
     try:

@@ -68,8 +68,8 @@ def sample_faces(face_fields, deflection, meshes=None):
 
 
 def tessellation_samples(faces, deflection, tessellation=None):
-    """Points (n, 3), triangles (m, 3) and node_area (n,) of OpenCascade's tessellation of the faces (a list
-    of Part.Face) at deflection, without fields: all the automatic reference length needs
+    """Points (n, 3), triangles (m, 3) and node_area (n,) of OpenCascade's tessellation of
+    the faces (a list of Part.Face) at deflection, without fields: all the automatic reference length needs
     (tessellation: an LrefTessellation of them already started; else one made now, in a
     child where forking is safe, so that no mesher thread starts here). Returns a dict with
     points, triangles and node_area, or None when no face has a tessellation."""
@@ -82,8 +82,9 @@ def tessellation_samples(faces, deflection, tessellation=None):
 
 
 def node_samples(pts, tris):
-    """dict(points (n, 3), triangles (m, 3), node_area (n,)) of a tessellation given as lref_samples.tessellate_faces
-    gives it (flat x, y, z doubles, flat triangle node indices), or None without triangles."""
+    """dict(points (n, 3), triangles (m, 3), node_area (n,)) of a tessellation given as
+    lref_samples.tessellate_faces gives it (flat x, y, z doubles, flat triangle node
+    indices), or None without triangles."""
     if len(tris) == 0:
         return None
     P = np.frombuffer(pts, dtype=np.float64).reshape(-1, 3)

@@ -11,7 +11,10 @@ import numpy as np
 from ..core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
 from ..core.signature import signature_values
 from ..core.validity import MetricValidity, Status
-from .cubature.settings import ZERO_SCALE
+from .cubature.settings import CLASS_AREAS, QUANTITIES, ZERO_SCALE
+
+#: The class-area quantities (flat, single, elliptic, saddle).
+CLASS_QUANTITIES = QUANTITIES[CLASS_AREAS]
 
 #: Stability rule for I_D over the global refinement sequence: last and prior relative change.
 ID_STABILITY = (0.02, 0.03)
@@ -55,7 +58,7 @@ def global_converged(faces, quantity, rtol):
 
 def _quantity_total(faces, q):
     if q == "A_classified":
-        return sum(f.quad.values[c] for f in faces for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
+        return sum(f.quad.values[c] for f in faces for c in CLASS_QUANTITIES)
     return sum(f.quad.values[q] for f in faces)
 
 
@@ -116,7 +119,8 @@ class MetricCase:
     error budget (global_converged), the shape's valid area, the audits and their verdicts,
     the global refinement sequence (history), the faces whose two integrations disagree on
     it (disagreeing_refinements), the faces whose trim domain is a polygon (fallback), the
-    degenerate points and sides counted, the quadrature options, and the evidence so far."""
+    degenerate points and sides counted, the quadrature options, the evidence so far, and
+    the floor under which I_D counts as zero in the stability rule (id_zero: ZERO_SCALE k_f)."""
 
     metric: str
     is_K: bool
@@ -130,7 +134,7 @@ class MetricCase:
     degenerate_count: int
     opts: dict
     evidence: dict
-    id_zero: float = 0.0
+    id_zero: float
 
 
 def _no_evidence(case):
@@ -236,7 +240,7 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
         conv = global_converged(faces, num, rtol) and (
             den == "A_classified" or global_converged(faces, den, rtol))
         if den == "A_classified":
-            conv = conv and all(global_converged(faces, c, rtol) for c in ("A_flat", "A_single", "A_elliptic", "A_saddle"))
+            conv = conv and all(global_converged(faces, c, rtol) for c in CLASS_QUANTITIES)
         evidence = {"error_estimate": sum(f.quad.errors.get(num, 0.0) for f in faces),
                     "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
                     "points": int(sum(f.quad.n_points for f in faces))}
@@ -270,7 +274,7 @@ def disagreeing_refinements(faces, num, den, rtol):
     """Faces integrated again whose two integrations disagree on the quantities of a metric
     (numerator num, denominator den) beyond their error estimates, by more than
     DISAGREEMENT_SHARE of the total's tolerance (global_tolerance), with both values."""
-    qs = {num, den} if den != "A_classified" else {num, "A_flat", "A_single", "A_elliptic", "A_saddle"}
+    qs = {num, den} if den != "A_classified" else {num, *CLASS_QUANTITIES}
     tol = {q: global_tolerance(faces, q, rtol) for q in qs}
     out = []
     for f in faces:

@@ -74,7 +74,8 @@ class RecordedShape:
         return self.reader.ready(1)
 
     def lref_samples(self):
-        """dict(points, triangles, node_area) of the automatic-L_ref tessellation (display.tessellation_samples)."""
+        """dict(points, triangles, node_area) of the automatic-L_ref tessellation
+        (display.tessellation_samples)."""
         from .display import node_samples
         frame = self.reader.frame(1)
         return node_samples(frame["lref_points"], frame["lref_triangles"])

@@ -32,10 +32,10 @@ import numpy as np
 from ..core.constants import CLASS_METRICS, DEFAULT_HF, DEFAULT_KF, METRICS
 from ..core.errors import InputError
 from ..core.fields import DistributedFields
+from ..core.inputs import checked_path
 from ..core.integrals import integrals_from_samples
 from ..core.progress import null_progress
 from ..core.reference_length import resolve_reference_length
-from ..core.inputs import checked_path
 from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds

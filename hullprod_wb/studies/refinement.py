@@ -76,13 +76,9 @@ def brep_lref(brep, lref=None):
     """The reference length of a BRep: explicit, or the automatic principal-axis span of a
     coarse tessellation (the same rule the backends use)."""
     from ..core.reference_length import resolve_reference_length
-    if lref is not None:
-        return resolve_reference_length(*_coarse_tessellation(brep.shape), explicit=lref)
-    return resolve_reference_length(*_coarse_tessellation(brep.shape))
-
-
-def _coarse_tessellation(shape):
-    return tessellate(shape, 1e-3 * max(shape.BoundBox.DiagonalLength, 1e-300), 0.5)
+    shape = brep.shape
+    V, F = tessellate(shape, 1e-3 * max(shape.BoundBox.DiagonalLength, 1e-300), 0.5)
+    return resolve_reference_length(V, F, explicit=lref)
 
 
 def tessellation_ladder(source, lref=None, linear=LINEAR_DEFLECTIONS, angular=ANGULAR_DEFLECTIONS,

@@ -8,7 +8,7 @@ from typing import Optional
 import numpy as np
 
 from ...core.integrals import SurfaceIntegrals
-from .settings import N_SMOOTH, QUANTITIES
+from .settings import CLASS_AREAS, QUANTITIES
 
 
 class QuadratureValues:
@@ -23,7 +23,7 @@ class QuadratureValues:
     @property
     def class_areas(self):
         """(4,) flat, single, elliptic, saddle areas."""
-        return np.array([self.values[q] for q in QUANTITIES[N_SMOOTH:]])
+        return np.array([self.values[q] for q in QUANTITIES[CLASS_AREAS]])
 
     def integrals(self):
         """The values as a core SurfaceIntegrals record."""
