@@ -178,7 +178,12 @@ def test_collisions_of_the_weld_hash_fall_back_to_the_exact_grouping(monkeypatch
     V, F = MESHES["scrambled"]
     soup = V[F].reshape(-1, 3)
     expect = ref.weld(soup)
-    monkeypatch.setattr(loading, "_mix", lambda z: z & np.uint64(3))  # four hash values
+    from hullprod_wb.mesh import weld
+
+    def four_slots(words, bits):  # four hash values: nearly every corner collides
+        h = words[0] & np.uint64(3)
+        return h, h.astype(np.intp)
+    monkeypatch.setattr(weld, "hash_slots", four_slots)
     got = loading.weld_exact(soup)
     assert np.array_equal(got[0], expect[0]) and np.array_equal(got[1], expect[1])
 

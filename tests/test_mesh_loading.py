@@ -276,15 +276,24 @@ def test_public_meshes(name):
     r.to_json()
 
 
-def test_unique_rows_exact_even_with_hash_collisions(monkeypatch):
-    import hullprod_wb.mesh.loading as L
+def _four_slots(words, bits):
+    """A hash with four values: nearly every row collides with others."""
+    h = words[0] & np.uint64(3)
+    return h, h.astype(np.intp)
+
+
+@pytest.mark.parametrize("rounds", [64, 1])
+def test_unique_rows_exact_even_with_hash_collisions(monkeypatch, rounds):
+    """Colliding hashes take more rounds of the table (64) or end in the exact sort (1)."""
+    import hullprod_wb.mesh.weld as W
     rng = np.random.default_rng(4)
     B = rng.integers(0, 5, size=(500, 3)).astype(np.int64)
-    first, inverse = L.unique_rows(B)
+    first, inverse = W.unique_rows(B)
     assert np.array_equal(B[first][inverse], B)
-    assert len(first) == len(np.unique(B, axis=0)) and np.all(np.diff(first) > 0)
-    monkeypatch.setattr(L, "_mix", lambda z: z & np.uint64(1))  # almost every row collides
-    f2, i2 = L.unique_rows(B)
+    assert np.array_equal(first, np.sort(np.unique(B, axis=0, return_index=True)[1]))
+    monkeypatch.setattr(W, "hash_slots", _four_slots)
+    monkeypatch.setattr(W, "MAX_ROUNDS", rounds)
+    f2, i2 = W.unique_rows(B)
     assert np.array_equal(f2, first) and np.array_equal(i2, inverse)
 
 

@@ -31,7 +31,8 @@ from ..core.inputs import checked_path, sha256_file
 from .curvature import check_arrays
 from .face_geometry import face_measures
 from .readers import read_mesh_file
-from .topology import edge_table, face_neighbours, group_pairs
+from .topology import edge_table, face_neighbours
+from .weld import unique_rows, weld_exact
 
 
 def _trimesh():
@@ -111,102 +112,6 @@ def prepared_from_freecad(obj):
     V = np.array(points, dtype=float).reshape(-1, 3)
     F = np.array(facets, dtype=np.int64).reshape(-1, 3)
     return prepare(V, F, source)
-
-
-#: log2 of the mean number of rows in a bucket of unique_rows' counting sort.
-HASH_BUCKET_BITS = 5
-_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
-_MIX2 = np.uint64(0x94D049BB133111EB)
-
-
-def _mix(z):
-    """64-bit finaliser (xor-shift-multiply) of uint64 z, in place."""
-    z ^= z >> np.uint64(30)
-    z *= _MIX1
-    z ^= z >> np.uint64(27)
-    z *= _MIX2
-    z ^= z >> np.uint64(31)
-    return z
-
-
-def _row_hashes(B):
-    """(k,) uint64 hash of the rows of a (k, c) array of 32- or 64-bit values."""
-    B = np.ascontiguousarray(B)
-    if B.dtype.itemsize == 4:
-        U = B.view(np.uint32)
-        cols = [U[:, j].astype(np.uint64) for j in range(U.shape[1])]
-        if len(cols) > 1:  # two 32-bit columns a word
-            cols = [cols[j] | (cols[j + 1] << np.uint64(32)) if j + 1 < len(cols) else cols[j]
-                    for j in range(0, len(cols), 2)]
-    else:
-        U = B.view(np.uint64)
-        cols = [U[:, j] for j in range(U.shape[1])]
-    with np.errstate(over="ignore"):
-        h = _mix(cols[0].copy())
-        for c in cols[1:]:
-            h ^= c
-            h = _mix(h)
-    return h
-
-
-def unique_rows(B):
-    """Exact unique rows of a (k, c) array of 32- or 64-bit values.
-
-    Rows are hashed to one uint64 and grouped by the hash's leading bits with one counting
-    sort (topology.group_pairs: its top bits as row, the next 31 as column); the grouping
-    is then checked against the rows themselves and, should two different rows share those
-    bits, redone with numpy's exact (slower) row sort. Returns (first (u,) index of each
-    distinct row's first occurrence, increasing; inverse (k,) group of every row),
-    groups numbered by first occurrence.
-    """
-    B = np.ascontiguousarray(B)
-    k = len(B)
-    if k == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    h = _row_hashes(B)
-    # about 32 rows a bucket: the counting sort stays in cache, the sorts within buckets short
-    rb = max(1, int(k - 1).bit_length() - HASH_BUCKET_BITS)
-    rows = (h >> np.uint64(64 - rb)).astype(np.int32 if rb < 31 else np.int64)
-    cols = ((h >> np.uint64(64 - rb - 31)) & np.uint64(0x7FFFFFFF)).astype(np.int32)
-    del h
-    order, row, col = group_pairs(rows, cols, 1 << rb, 1 << 31)
-    del rows, cols
-    new = np.empty(k, dtype=bool)
-    new[0] = True
-    np.not_equal(col[1:], col[:-1], out=new[1:])
-    new[1:] |= row[1:] != row[:-1]
-    del row, col
-    starts = np.flatnonzero(new)
-    first = np.minimum.reduceat(order, starts)
-    gid = np.cumsum(new) - 1
-    del new, starts
-    mark = np.zeros(k, dtype=bool)
-    mark[first] = True
-    rank = np.cumsum(mark) - 1
-    inverse = np.empty(k, dtype=np.int64)
-    inverse[order] = rank[first][gid]
-    del gid, rank
-    first_sorted = np.flatnonzero(mark)
-    if not np.array_equal(B[first_sorted[inverse]], B):      # a hash collision: exact fallback
-        rows_v = B.view(np.dtype((np.void, B.dtype.itemsize * B.shape[1]))).ravel()
-        _, first, inv = np.unique(rows_v, return_index=True, return_inverse=True)
-        by_first = np.argsort(first, kind="stable")
-        rank = np.empty(len(first), dtype=np.int64)
-        rank[by_first] = np.arange(len(first))
-        return first[by_first], rank[inv.ravel()]
-    return first_sorted, inverse
-
-
-def weld_exact(V, F=None):
-    """Merge vertices with bit-identical coordinates (-0.0 equals 0.0), keeping the order of
-    first occurrence. F None: V is a triangle soup (triangle i = rows 3i..3i+2). Float32
-    vertices are compared as stored (their float64 values are the same points). Returns
-    (float64 vertices, faces, number merged)."""
-    Vc = np.asarray(V)
-    Vc = Vc + Vc.dtype.type(0.0) if Vc.dtype in (np.float32, np.float64) else Vc.astype(np.float64) + 0.0
-    first, inverse = unique_rows(Vc)
-    faces = inverse.reshape(-1, 3) if F is None else inverse[F]
-    return Vc[first].astype(np.float64, copy=False), faces, len(Vc) - len(first)
 
 
 def degenerate_faces(V, F):
