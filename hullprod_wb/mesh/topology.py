@@ -14,30 +14,34 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .threads import default_threads, run_blocks
+
+#: Faces per block of the side pass.
+BLOCK = 1 << 15
+
 
 def _index_dtype(limit):
     return np.int32 if limit < np.iinfo(np.int32).max else np.int64
 
 
-def group_pairs(rows, cols, n_rows, n_cols):
-    """Grouping of the integer pairs (rows[i], cols[i]) in lexicographic order.
+def sorted_pairs(rows, cols, n_rows, n_cols):
+    """The integer pairs (rows[i], cols[i]) in lexicographic order.
 
-    Returns (order (k,) int: the items sorted by (row, col), row (k,) and col (k,) of the
-    sorted items). Items with equal pairs are adjacent, in no particular order among
-    themselves. Linear: a counting sort by row, then a sort of each (short) row by col.
+    Returns (order (k,): the items sorted by (row, col), col (k,) of the sorted items,
+    row_start (n_rows + 1,): where each row begins in that order). Items with equal pairs
+    are adjacent, in no particular order among themselves. Linear: a counting sort by row
+    (scipy's compressed-sparse-row construction), then a sort of each (short) row by col.
     """
     from scipy.sparse import coo_matrix
     k = len(rows)
     itype = _index_dtype(max(k, n_rows, n_cols) + 1)
-    data = np.arange(k, dtype=itype)
-    A = coo_matrix((data, (rows.astype(itype, copy=False), cols.astype(itype, copy=False))),
+    A = coo_matrix((np.arange(k, dtype=itype), (rows.astype(itype, copy=False), cols.astype(itype, copy=False))),
                    shape=(n_rows, n_cols))
     A.has_canonical_format = True      # keep repeated pairs apart: they are what we count
     C = A.tocsr()
     C.has_sorted_indices = False
     C.sort_indices()
-    row = np.repeat(np.arange(n_rows, dtype=itype), np.diff(C.indptr))
-    return C.data, row, C.indices
+    return C.data, C.indices, C.indptr
 
 
 def side_keys(faces, n_vertices):
@@ -48,14 +52,20 @@ def side_keys(faces, n_vertices):
 
 def side_ends(faces):
     """(lo, hi): (m, 3) lower and higher vertex of the undirected edge of each side (int32
-    where the vertex ids allow it)."""
+    where the vertex ids allow it), over blocks of faces on default_threads() threads."""
     F = np.asarray(faces)
-    if len(F) and F.max() < np.iinfo(np.int32).max:
-        F = F.astype(np.int32)
-    nxt = np.empty_like(F)
-    nxt[:, :2] = F[:, 1:]
-    nxt[:, 2] = F[:, 0]
-    return np.minimum(F, nxt), np.maximum(F, nxt)
+    m = len(F)
+    itype = _index_dtype(int(F.max()) + 1 if m else 0)
+    lo = np.empty((m, 3), dtype=itype)
+    hi = np.empty((m, 3), dtype=itype)
+
+    def block(sl):
+        f = F[sl].astype(itype, copy=False)
+        nxt = np.roll(f, -1, axis=1)
+        np.minimum(f, nxt, out=lo[sl])
+        np.maximum(f, nxt, out=hi[sl])
+    run_blocks(block, [slice(a, min(a + BLOCK, m)) for a in range(0, m, BLOCK)], default_threads())
+    return lo, hi
 
 
 @dataclass
@@ -127,32 +137,37 @@ class EdgeTable:
         ps[hit] = 3 * f[hit] + swap[ps[hit] % 3]
 
 
-def edge_table(faces, n_vertices, with_sides=True):
-    """Group the 3m sides into undirected edges with one counting sort (module docstring)."""
+def edge_table(faces, n_vertices):
+    """Group the 3m sides into undirected edges with one counting sort (module docstring).
+    Index arrays are int32 where the counts allow it."""
     F = np.asarray(faces)
     m = len(F)
     if m == 0:
         z = np.zeros((0, 2), np.int64)
         return EdgeTable(z, np.zeros(0, np.int64), np.zeros((0, 3), np.int64), z, z)
     lo, hi = side_ends(F)
+    lo, hi = lo.reshape(-1), hi.reshape(-1)
     n = int(n_vertices)
-    order, row, col = group_pairs(lo.ravel(), hi.ravel(), n, n)
-    del lo, hi
-    k = len(order)
+    k = len(lo)
+    itype = _index_dtype(max(k, n) + 1)
+    order, col, row_start = sorted_pairs(lo, hi, n, n)
+    del hi
     new = np.empty(k, dtype=bool)
     new[0] = True
     np.not_equal(col[1:], col[:-1], out=new[1:])
-    new[1:] |= row[1:] != row[:-1]
-    starts = np.flatnonzero(new)
-    count = np.diff(np.append(starts, k))
-    edges = np.stack([row[starts], col[starts]], axis=1).astype(np.int64)
-    eid = np.cumsum(new) - 1
-    side_edge = np.empty(k, dtype=np.int64)
-    side_edge[order] = eid
-    del eid, new
+    new[row_start[row_start < k]] = True           # a new row is a new edge
+    starts = np.flatnonzero(new).astype(itype, copy=False)
+    count = np.diff(starts, append=itype(k))
+    edges = np.stack([lo[order[starts]], col[starts]], axis=1)
+    del lo, col
+    side_edge = np.empty(k, dtype=itype)
+    side_edge[order] = np.cumsum(new, dtype=itype) - 1
+    del new
     two = starts[count == 2]
-    s1, s2 = order[two].astype(np.int64), order[two + 1].astype(np.int64)
-    pair_sides = np.stack([np.minimum(s1, s2), np.maximum(s1, s2)], axis=1)
+    s1, s2 = order[two], order[two + 1]
+    pair_sides = np.empty((len(two), 2), dtype=itype)
+    np.minimum(s1, s2, out=pair_sides[:, 0])
+    np.maximum(s1, s2, out=pair_sides[:, 1])
     return EdgeTable(edges, count, side_edge.reshape(-1, 3), pair_sides // 3, pair_sides)
 
 
