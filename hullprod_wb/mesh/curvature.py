@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import InputError
-from .threads import default_threads, run_blocks, run_parts
+from .threads import default_threads, iter_parts, run_blocks
 from .topology import vertex_flags
 
 
@@ -105,13 +105,14 @@ def _cross(a, b):
 def _vertex_sums(index, weights, n, threads):
     """Per-vertex sums over the three corner slots: out[k] = sum over j of
     bincount(index[j], weights[k][j]) for each weight row k ((3, m) index rows, weights
-    (k, 3, m)); the bincounts run on threads, the sums in the slot order 0, 1, 2."""
+    (k, 3, m)); the bincounts run on threads, the sums in the slot order 0, 1, 2, each row's
+    as soon as its three bincounts are done."""
     jobs = [(k, j) for k in range(len(weights)) for j in range(3)]
 
     def count(kj):
         return np.bincount(index[kj[1]], weights=weights[kj[0]][kj[1]], minlength=n)
-    parts = run_parts([lambda kj=kj: count(kj) for kj in jobs], threads)
-    return [sum(parts[3 * k + j] for j in range(3)).astype(float, copy=False) for k in range(len(weights))]
+    parts = iter_parts([lambda kj=kj: count(kj) for kj in jobs], threads)
+    return [sum(next(parts) for _ in range(3)).astype(float, copy=False) for _ in range(len(weights))]
 
 
 def barycentric_vertex_areas(vertices, faces):
@@ -122,18 +123,19 @@ def barycentric_vertex_areas(vertices, faces):
     return np.bincount(F.ravel(), weights=np.repeat(A / 3.0, 3), minlength=len(V))
 
 
-def vertex_frames(normals):
-    """Orthonormal tangent frames (u, v) of (3, n) unit normals, u x v = n.
+def frame_u(normals, out):
+    """u of the orthonormal tangent frames (u, v = n x u) of (3, n) unit normals, written
+    into out (3, n).
 
     u is the coordinate axis least aligned with n, made orthogonal to n; the choice
     depends on the normal only, so the results do not depend on the face order.
     """
     k = np.argmin(np.abs(normals), axis=0)
-    u = np.zeros_like(normals)
-    u[k, np.arange(normals.shape[1])] = 1.0
-    u -= normals * _dot(u, normals)
-    u /= np.sqrt(_dot(u, u))
-    return u, _cross(normals, u)
+    out[...] = 0.0
+    out[k, np.arange(normals.shape[1])] = 1.0
+    out -= normals * _dot(out, normals)
+    out /= np.sqrt(_dot(out, out))
+    return out
 
 
 #: Faces per block of the vectorised passes: the temporaries of one block stay in cache.
@@ -317,19 +319,22 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     cn = buffer[:9 * m].reshape(3, 3, m)      # corner slot, coordinate, face
     area = np.empty(m)
     run_blocks(lambda sl: _normal_block(Vt, fc, cn, area, sl), blocks, threads)
-    nv = np.stack(_vertex_sums(fc, [[cn[j][c] for j in range(3)] for c in range(3)], n, threads))
+    frames = np.empty((6, n))                 # (6, n): normal, u
+    nv, uf = frames[:3], frames[3:]
+    for c, total in enumerate(_vertex_sums(fc, [[cn[j][c] for j in range(3)] for c in range(3)], n, threads)):
+        nv[c] = total
     del cn
     nlen = np.sqrt(_dot(nv, nv))
     has_normal = nlen > 0
     nv /= np.where(has_normal, nlen, 1.0)
-    uf, vf = vertex_frames(np.where(has_normal, nv, [[0.0], [0.0], [1.0]]))
-    frames = np.concatenate([nv, uf])         # (6, n): normal, u
+    frame_u(np.where(has_normal, nv, [[0.0], [0.0], [1.0]]), uf)
 
     # 2-3. Face tensors carried to the corners, accumulated with the corner areas.
     acc = buffer.reshape(4, 3, m)
     run_blocks(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
     kmean, kx, ky, wsum = _vertex_sums(fc, acc, n, threads)
-    del acc, frames, buffer
+    del acc, buffer
+    vf = _cross(np.where(has_normal, nv, [[0.0], [0.0], [1.0]]), uf)
 
     # 4. Eigen-decomposition of the vertex tensors [[mean + X, Y], [Y, mean - X]].
     usable = has_normal & (wsum > 0)

@@ -24,9 +24,12 @@ def run_blocks(fn, blocks, threads):
             fn(sl)
 
 
-def run_parts(fns, threads):
-    """[fn() for fn in fns], the calls on up to threads threads."""
+def iter_parts(fns, threads):
+    """fn() for fn in fns, in order, as an iterator: the calls run on up to threads
+    threads, and a result is let go of once the caller has taken it."""
     if threads > 1 and len(fns) > 1:
         with ThreadPoolExecutor(max_workers=threads) as pool:
-            return list(pool.map(lambda fn: fn(), fns))
-    return [fn() for fn in fns]
+            yield from pool.map(lambda fn: fn(), fns)
+    else:
+        for fn in fns:
+            yield fn()
