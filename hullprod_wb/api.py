@@ -7,13 +7,13 @@ import os
 
 from .core.constants import DEFAULT_HF, DEFAULT_KF
 from .core.errors import InputError
-from .core.inputs import describe_file
+from .core.inputs import file_representation
 
 
 def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
-        return describe_file(source)["representation"]  # and its structure checked
+        return file_representation(source)  # its structure checked, its hash begun
     if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.record_reader)
         return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):

@@ -149,6 +149,20 @@ def test_binary_stl_count_against_size(mesh_files, tmp_path):
         check_file(str(p), "stl")
 
 
+@pytest.mark.parametrize("padding", [b"", b"\n", b" \r\n" * 3000 + b"\x00" * 5000 + b"\x1a"])
+def test_ascii_stl_end_read_from_the_tail(tmp_path, padding):
+    """The endsolid line is found behind any run of trailing blanks, NUL or ^Z bytes (the
+    file is mapped and its tail read a few kB at a time); a file without it is truncated."""
+    body = b"solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n" \
+           b"endloop\nendfacet\n"
+    whole, cut = tmp_path / "whole.stl", tmp_path / "cut.stl"
+    whole.write_bytes(body + b"endsolid a" + padding)
+    cut.write_bytes(body + b"facet normal 0 0 1" + padding)
+    assert check_file(str(whole), "stl") == {}
+    with pytest.raises(InputError, match="does not end with endsolid .last line 'facet normal 0 0 1'"):
+        check_file(str(cut), "stl")
+
+
 def test_fewer_faces_than_declared_is_a_caution():
     validity = {m: MetricValidity(Status.VALID, 1.0, "", "converged") for m in ("I_D", "a_flat")}
     assert not mark_fewer_faces(validity, {"declared": {"declared_faces": 3}, "face_count": 3})

@@ -23,6 +23,7 @@ check_file also returns what the file declares that the reader's result can be c
 with: the number of faces (IGES: trimmed and bounded surfaces, faces and independent
 untrimmed surfaces; STEP: ADVANCED_FACE and FACE_SURFACE entities; .brep: Fa shapes).
 """
+import mmap
 import os
 import re
 import struct
@@ -43,6 +44,8 @@ LIST_RUN_WINDOW = 16
 #: Bytes of PLY scalar property types.
 PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2, "uint16": 2,
              "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4, "double": 8, "float64": 8}
+#: Formats whose checks read the whole file as text (the others map it and read what they look at).
+READ_WHOLE = ("iges", "step", "brep", "fcstd")
 IGES_SECTIONS = {"S": "Start", "G": "Global", "D": "Directory Entry", "P": "Parameter Data", "T": "Terminate"}
 
 
@@ -277,6 +280,18 @@ def check_brep(path, data):
 # -- meshes -----------------------------------------------------------------------------------
 
 
+def _last_line(data):
+    """The last line of data (bytes or a mapped file) once trailing blanks, NUL and ^Z bytes
+    are dropped, stripped: read from the end, a few kB at a time."""
+    end, chunk = len(data), 4096
+    while end > 0:
+        piece = data[max(0, end - chunk):end].rstrip(b" \t\r\n\x00\x1a")
+        end = max(0, end - chunk) + len(piece)
+        if piece:
+            break
+    return data[data.rfind(b"\n", 0, end) + 1:end].strip()
+
+
 def check_stl(path, data):
     size = len(data)
     head = data[:512].lstrip().lower()
@@ -285,7 +300,7 @@ def check_stl(path, data):
         if 84 + 50 * n == size:
             return {"declared_triangles": n}
     if head.startswith(b"solid") and (b"facet" in head or b"endsolid" in head):
-        tail = data.rstrip(b" \t\r\n\x00\x1a").rsplit(b"\n", 1)[-1].strip().lower()
+        tail = _last_line(data).lower()
         if not tail.startswith(b"endsolid"):
             _fail(path, "truncated: the ASCII STL file does not end with endsolid (last line %r)"
                   % tail[:40].decode("latin-1"))
@@ -300,8 +315,8 @@ def check_stl(path, data):
 
 def check_ply(path, data):
     end = data.find(b"end_header")
-    if not data.startswith(b"ply") or end < 0:
-        _fail(path, "truncated: the PLY header has no end_header" if data.startswith(b"ply")
+    if data[:3] != b"ply" or end < 0:
+        _fail(path, "truncated: the PLY header has no end_header" if data[:3] == b"ply"
               else "not a PLY file: it does not begin with 'ply'")
     nl = data.find(b"\n", end)
     body_at = len(data) if nl < 0 else nl + 1
@@ -407,10 +422,17 @@ def check_file(path, fmt):
         return {}
     try:
         with open(path, "rb") as fh:
-            data = fh.read()
+            if fmt in READ_WHOLE or os.fstat(fh.fileno()).st_size == 0:
+                data = fh.read()
+            else:  # only the parts the check looks at are read
+                data = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
     except OSError as exc:
         raise InputError("cannot read %s: %s" % (path, exc.strerror or exc)) from None
-    return check(os.fspath(path), data)
+    try:
+        return check(os.fspath(path), data)
+    finally:
+        if isinstance(data, mmap.mmap):
+            data.close()
 
 
 def mark_fewer_faces(validity, info):

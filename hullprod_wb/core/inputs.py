@@ -2,6 +2,8 @@
 import functools
 import hashlib
 import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
 from .errors import InputError
 from .file_checks import check_file
@@ -14,13 +16,40 @@ DOCUMENT_FORMATS = {".fcstd": "fcstd"}
 
 def sha256_file(path):
     """Hex SHA-256 of the file's bytes, computed once for the same path, size and
-    modification time (the input record asks for it before the reader and again in it)."""
+    modification time (the input record asks for it before the reader and again in it),
+    in the background when start_sha256 began it."""
+    return start_sha256(path).result()
+
+
+def start_sha256(path):
+    """Begin the SHA-256 of the file on a background thread (hashlib lets go of the
+    interpreter while it digests, so reading and hashing run side by side); a
+    concurrent.futures.Future of the hex digest, shared by the calls for the same path,
+    size and modification time."""
     st = os.stat(path)
-    return _sha256(os.path.abspath(path), st.st_size, st.st_mtime_ns)
+    key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
+    with _HASHES_LOCK:
+        future = _HASHES.pop(key, None)
+        if future is None:
+            future = _hash_pool().submit(_sha256, key[0])
+        _HASHES[key] = future
+        while len(_HASHES) > MAX_HASHES:
+            _HASHES.pop(next(iter(_HASHES)))
+    return future
 
 
-@functools.lru_cache(maxsize=64)
-def _sha256(path, size, mtime_ns, chunk=1 << 20):
+#: Digests kept (the most recent files).
+MAX_HASHES = 64
+_HASHES = {}
+_HASHES_LOCK = threading.Lock()
+
+
+@functools.lru_cache(maxsize=None)
+def _hash_pool():
+    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="hullprod-sha256")
+
+
+def _sha256(path, chunk=1 << 20):
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(chunk), b""):
@@ -64,12 +93,22 @@ def describe_file(path):
     file declares, e.g. declared_faces, when its format declares it).
     """
     path, fmt, rep = checked_path(path)
+    start_sha256(path)
     size = os.path.getsize(path)
-    info = {"path": path, "sha256": sha256_file(path), "format": fmt, "representation": rep, "size_bytes": size}
     declared = checked_structure(path, fmt, size, os.path.getmtime(path))
+    info = {"path": path, "sha256": sha256_file(path), "format": fmt, "representation": rep, "size_bytes": size}
     if declared:
         info["declared"] = dict(declared)
     return info
+
+
+def file_representation(path):
+    """'mesh', 'brep' or 'document': the representation of a file that passes
+    describe_file's checks, its SHA-256 begun in the background (start_sha256)."""
+    path, fmt, rep = checked_path(path)
+    start_sha256(path)
+    checked_structure(path, fmt, os.path.getsize(path), os.path.getmtime(path))
+    return rep
 
 
 @functools.lru_cache(maxsize=64)

@@ -32,7 +32,7 @@ import numpy as np
 from ..core.constants import CLASS_METRICS, DEFAULT_HF, DEFAULT_KF, METRICS
 from ..core.errors import InputError
 from ..core.fields import DistributedFields
-from ..core.inputs import checked_path
+from ..core.inputs import checked_path, start_sha256
 from ..core.integrals import integrals_from_samples
 from ..core.progress import null_progress
 from ..core.reference_length import resolve_reference_length
@@ -60,9 +60,11 @@ def open_mesh(source, progress=None):
     if isinstance(source, (str, os.PathLike)):
         path, fmt, _ = checked_path(source, "mesh")
         check_memory(path, fmt)
+        start_sha256(path)        # digested beside the reading
+        mesh = load_prepared(path, progress)
         info = {"path": path, "format": fmt, "representation": "mesh"}
         info.update(file_record(path))
-        return load_prepared(path, progress), info
+        return mesh, info
     if type(source).__module__.startswith("trimesh"):
         if not hasattr(source, "faces"):
             raise InputError("a trimesh %s is not a triangle mesh" % type(source).__name__)
