@@ -72,24 +72,33 @@ def check_arrays(vertices, faces, where="the mesh"):
     """Validate and convert (n, 3) float vertices and (m, 3) int faces (InputError otherwise)."""
     try:
         V = np.asarray(vertices, dtype=np.float64)
-        F = np.asarray(faces)
     except (TypeError, ValueError) as exc:
         raise InputError("%s: vertex or face arrays cannot be read as numbers: %s" % (where, exc)) from None
     if V.ndim != 2 or V.shape[1] != 3:
         raise InputError("%s: vertices must be an (n, 3) array, got shape %s" % (where, V.shape))
+    F = check_faces(faces, len(V), where)
+    if not np.all(np.isfinite(V)):
+        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
+                         % (where, int(np.count_nonzero(~np.all(np.isfinite(V), axis=1))), len(V)))
+    return V, F
+
+
+def check_faces(faces, n, where="the mesh"):
+    """(m, 3) int64 faces of vertex ids 0..n-1 (InputError otherwise)."""
+    try:
+        F = np.asarray(faces)
+    except (TypeError, ValueError) as exc:
+        raise InputError("%s: vertex or face arrays cannot be read as numbers: %s" % (where, exc)) from None
     if F.ndim != 2 or F.shape[1] != 3:
         raise InputError("%s: faces must be an (m, 3) array of vertex indices, got shape %s"
                          % (where, F.shape))
     if F.size and not np.issubdtype(F.dtype, np.integer):
         if not np.all(np.mod(F, 1) == 0):
             raise InputError("%s: faces must hold integer vertex indices" % where)
-    if not np.all(np.isfinite(V)):
-        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
-                         % (where, int(np.count_nonzero(~np.all(np.isfinite(V), axis=1))), len(V)))
     F = F.astype(np.int64, copy=False)
-    if F.size and (F.min() < 0 or F.max() >= len(V)):
-        raise InputError("%s: faces refer to vertex indices outside 0..%d" % (where, len(V) - 1))
-    return V, F
+    if F.size and (F.min() < 0 or F.max() >= n):
+        raise InputError("%s: faces refer to vertex indices outside 0..%d" % (where, n - 1))
+    return F
 
 
 def _dot(a, b):

@@ -22,13 +22,14 @@ record of all this is the PreparedMesh's info, ``mesh.metadata['hullprod']`` of 
 trimesh.Trimesh that :func:`load_mesh` returns.
 """
 import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.errors import InputError
 from ..core.inputs import checked_path, sha256_file
-from .curvature import check_arrays
+from .curvature import check_arrays, check_faces
 from .face_geometry import face_measures
 from .readers import read_mesh_file
 from .topology import edge_table, face_neighbours
@@ -174,19 +175,24 @@ def orient_faces(V, F, table):
         # pieces: the unordered pair of double-cover components
         piece = np.unique(np.minimum(keep, alt), return_inverse=True)[1]
         npieces = int(piece.max()) + 1 if m else 0
-    out = F.copy()
-    out[flip] = out[flip][:, ::-1]
-    open_edge = table.count[table.side_edge] != 2          # (m, 3)
-    piece_open = np.bincount(piece, weights=open_edge.any(axis=1) | non_orientable, minlength=npieces) > 0
-    del open_edge
+    out = F
+    if flip.any():
+        out = F.copy()
+        out[flip] = out[flip][:, ::-1]
+    open_face = (table.side_count() != 2).any(axis=1) | non_orientable
+    if npieces == 1:
+        piece_open = np.array([open_face.any()])
+    else:
+        piece_open = np.bincount(piece, weights=open_face, minlength=npieces) > 0
+    del open_face
     piece_vol = np.bincount(piece, weights=_signed_volumes(V, out), minlength=npieces)
     invert_piece = ~piece_open & (piece_vol < 0)
     inv = invert_piece[piece]
-    out[inv] = out[inv][:, ::-1]
+    if inv.any():
+        out = F.copy() if out is F else out
+        out[inv] = out[inv][:, ::-1]
     reversed_faces = flip ^ inv
     table.flip_faces(reversed_faces)
-    if not reversed_faces.any():
-        out = F          # unchanged: the same array, whose winding the table remembers
     info = {
         "winding_flipped_faces": int(np.count_nonzero(flip)),
         "inverted_closed_pieces": int(np.count_nonzero(invert_piece)),
@@ -209,7 +215,7 @@ def duplicate_face_count(F, table):
     nb = face_neighbours(table, len(F))
     twin = (nb[:, 0] >= 0) & (nb[:, 0] == nb[:, 1]) & (nb[:, 1] == nb[:, 2])
     count = int(np.count_nonzero(twin)) // 2
-    shared = (table.count[table.side_edge] > 2).any(axis=1)
+    shared = (table.side_count() > 2).any(axis=1)
     if shared.any():
         sub = np.sort(F[shared], axis=1)
         count += len(sub) - len(unique_rows(sub)[0])
@@ -257,8 +263,11 @@ def prepare(vertices, faces, source, progress=None):
     progress(0.2, "welding %d vertices" % n_in)
     V, F, merged = weld_exact(V, F)
     info["welded_vertices"] = int(merged)
-    progress(0.4, "triangle measures of %d faces" % len(F))
-    measures = face_measures(V, F)
+    progress(0.4, "triangle measures and edges of %d faces" % len(F))
+    with ThreadPoolExecutor(max_workers=1) as pool:   # the edges beside the measures
+        table = pool.submit(edge_table, F, len(V))
+        measures = face_measures(V, F)
+        table = table.result()
     bad = measures.degenerate
     info["degenerate_faces_removed"] = int(np.count_nonzero(bad))
     if bad.all():
@@ -267,15 +276,19 @@ def prepare(vertices, faces, source, progress=None):
     if bad.any():
         F = F[~bad]
         measures = measures.take(~bad)
+        table = None
     used = np.zeros(len(V), dtype=bool)
     used[F.ravel()] = True
     info["unreferenced_vertices_removed"] = int(np.count_nonzero(~used))
     if not used.all():
         remap = np.cumsum(used) - 1
         V, F = V[used], remap[F]
+        if table is not None:   # the same edges in the same order, on the vertices kept
+            table.edges = remap[table.edges].astype(table.edges.dtype)
     del used
-    progress(0.6, "edges of %d faces" % len(F))
-    table = edge_table(F, len(V))
+    if table is None:
+        progress(0.6, "edges of %d faces" % len(F))
+        table = edge_table(F, len(V))
     info["edges"] = int(len(table.count))
     info["boundary_edges"] = int(np.count_nonzero(table.count == 1))
     info["nonmanifold_edges"] = int(np.count_nonzero(table.count > 2))
@@ -318,7 +331,9 @@ def check_raw_arrays(vertices, faces, where="the mesh"):
     if not finite.all():
         raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
                          % (where, int(np.count_nonzero(~finite)), len(V)))
-    _, F = check_arrays_finite(np.zeros((len(V), 3)), faces, where)
+    F = check_faces(faces, len(V), where)
+    if len(F) == 0:
+        raise InputError("%s has no triangles (empty mesh)" % where)
     return V, F
 
 

@@ -109,6 +109,13 @@ class EdgeTable:
         self._flags = tuple(out)
         return self._flags
 
+    def side_count(self):
+        """(m, 3) faces using the edge of each face side (computed once until flip_faces)."""
+        cached = getattr(self, "_side_count", None)
+        if cached is None:
+            cached = self._side_count = self.count[self.side_edge]
+        return cached
+
     def same_direction(self, faces):
         """(p,) bool per manifold edge: both faces run it the same way (their windings
         disagree; with consistent orientation one runs a -> b, the other b -> a).
@@ -127,7 +134,7 @@ class EdgeTable:
         [c, b, a]: their sides 0 and 1 trade places, side 2 stays."""
         if not np.any(flipped):
             return
-        self._same = None
+        self._same = self._side_count = None
         se = self.side_edge
         se[flipped] = se[flipped][:, [1, 0, 2]]
         swap = np.array([1, 0, 2])
@@ -189,8 +196,8 @@ def face_pairs(faces, table):
 def face_neighbours(table, m):
     """(m, 3) face across each side over a manifold edge, -1 where the edge is a boundary
     or non-manifold edge."""
-    nb = np.full(3 * m, -1, dtype=np.int64)
     ps = table.pair_sides
+    nb = np.full(3 * m, -1, dtype=ps.dtype)
     nb[ps[:, 0]] = ps[:, 1] // 3
     nb[ps[:, 1]] = ps[:, 0] // 3
     return nb.reshape(-1, 3)
