@@ -32,7 +32,7 @@ from ..core.inputs import checked_path, sha256_file
 from .curvature import check_arrays, check_faces
 from .face_geometry import face_measures
 from .readers import read_mesh_file
-from .topology import edge_table, face_neighbours
+from .topology import edge_table, face_neighbours, import_sparse_in_background
 from .weld import unique_rows, weld_exact
 
 
@@ -55,6 +55,7 @@ def load_mesh(path):
 def load_prepared(path, progress=None):
     """Read and prepare a mesh file: a PreparedMesh (see :func:`prepare`)."""
     path, fmt, _ = checked_path(path, "mesh")
+    import_sparse_in_background()
     progress = progress or (lambda fraction, message: None)
     progress(0.0, "reading %s" % os.path.basename(path))
     raw = read_mesh_file(path, fmt)

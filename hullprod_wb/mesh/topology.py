@@ -10,6 +10,9 @@ the higher one within each bucket (scipy's compressed-sparse-row construction, l
 the number of sides), so that the edges come out in the order of the keys
 min(a, b) * n + max(a, b), as a full sort of the keys would give them.
 """
+import importlib
+import sys
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +25,15 @@ BLOCK = 1 << 15
 
 def _index_dtype(limit):
     return np.int32 if limit < np.iinfo(np.int32).max else np.int64
+
+
+def import_sparse_in_background():
+    """Import scipy.sparse and its graph algorithms on a background thread, for the edge
+    table and the orientation that follow the reading of a file (their import runs while
+    the reader and the weld work in numpy, which lets go of the interpreter)."""
+    if "scipy.sparse.csgraph" not in sys.modules:
+        threading.Thread(target=importlib.import_module, args=("scipy.sparse.csgraph",),
+                         name="hullprod-import", daemon=True).start()
 
 
 def sorted_pairs(rows, cols, n_rows, n_cols):
