@@ -79,7 +79,7 @@ def test_readers_give_what_trimesh_reads(tmp_path, name, file_type):
     fast = readers.read_mesh_file(path, ext)
     slow = readers._trimesh_reader(path, ext)
     faces = np.arange(3 * fast.n_faces).reshape(-1, 3) if fast.faces is None else fast.faces
-    assert np.array_equal(np.asarray(fast.vertices, float), np.asarray(slow.vertices, float))
+    assert np.array_equal(np.asarray(fast.vertices, float).reshape(-1, 3), np.asarray(slow.vertices, float))
     assert np.array_equal(faces, slow.faces)
 
 

@@ -106,6 +106,13 @@ def test_nan_coordinates(tmp_path):
                  "vertex 0 1 0\nendloop\nendfacet\nendsolid x\n")
     with pytest.raises(InputError, match="NaN or infinite"):
         load_mesh(str(p))
+    b = tmp_path / "nan_binary.stl"      # read as a view of the mapped file
+    trimesh.Trimesh(plane_mesh(1)[0], [[0, 1, 2], [1, 3, 2]], process=False).export(str(b))
+    data = bytearray(b.read_bytes())
+    data[84 + 50 + 12 + 12 + 4:84 + 50 + 12 + 12 + 8] = np.float32(np.nan).tobytes()  # triangle 2, corner 2, y
+    b.write_bytes(bytes(data))
+    with pytest.raises(InputError, match="NaN or infinite coordinates at 1 of its 6 vertices"):
+        load_mesh(str(b))
 
 
 def test_bad_arrays():

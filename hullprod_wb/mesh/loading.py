@@ -258,8 +258,8 @@ def prepare(vertices, faces, source, progress=None):
     progress = progress or (lambda fraction, message: None)
     where = source.get("path") or source.get("name") or source.get("label") or source.get("kind")
     V, F = check_raw_arrays(vertices, faces, where)
-    n_in = len(V)
-    m_in = len(V) // 3 if F is None else len(F)
+    n_in = V.size // 3
+    m_in = n_in // 3 if F is None else len(F)
     info = {"source": dict(source), "input_vertices": int(n_in), "input_faces": int(m_in)}
     progress(0.2, "welding %d vertices" % n_in)
     V, F, merged = weld_exact(V, F)
@@ -309,33 +309,37 @@ def prepare(vertices, faces, source, progress=None):
 
 def check_raw_arrays(vertices, faces, where="the mesh"):
     """check_arrays_finite for vertices kept in their stored float type (float32 or
-    float64, not converted) and faces None (a triangle soup: 3m vertex rows)."""
+    float64, not converted) and faces None (a triangle soup: its (m, 3, 3) corners or
+    3m vertex rows)."""
     V = vertices
     if not (isinstance(V, np.ndarray) and V.dtype in (np.float32, np.float64)):
         V = check_arrays(vertices, np.zeros((0, 3), np.int64), where)[0]
-    if V.ndim != 2 or V.shape[1] != 3:
+    soup = faces is None and V.ndim == 3 and V.shape[1:] == (3, 3)
+    if not soup and (V.ndim != 2 or V.shape[1] != 3):
         raise InputError("%s: vertices must be an (n, 3) array, got shape %s" % (where, V.shape))
     if faces is None:
-        if len(V) % 3:
+        if not soup and len(V) % 3:
             raise InputError("%s: a triangle soup needs 3 vertices a triangle, got %d" % (where, len(V)))
-        finite = np.isfinite(V).all(axis=1)
-        if not finite.all():
-            raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
-                             % (where, int(np.count_nonzero(~finite)), len(V)))
+        _check_finite(V, where)
         if len(V) == 0:
             raise InputError("%s has no triangles (empty mesh)" % where)
         return V, None
     if V.dtype == np.float64:
         V, F = check_arrays_finite(V, faces, where)
         return V, F
-    finite = np.isfinite(V).all(axis=1)
-    if not finite.all():
-        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
-                         % (where, int(np.count_nonzero(~finite)), len(V)))
+    _check_finite(V, where)
     F = check_faces(faces, len(V), where)
     if len(F) == 0:
         raise InputError("%s has no triangles (empty mesh)" % where)
     return V, F
+
+
+def _check_finite(V, where):
+    """InputError naming the vertices (rows of 3 coordinates) of V that are NaN or infinite."""
+    if not np.isfinite(V).all():
+        bad = ~np.isfinite(V).all(axis=-1)
+        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
+                         % (where, int(np.count_nonzero(bad)), bad.size))
 
 
 def check_arrays_finite(vertices, faces, where="the mesh"):

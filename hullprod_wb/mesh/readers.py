@@ -31,7 +31,8 @@ class RawMesh:
     """A file's triangles before preparation.
 
     vertices: (k, 3) float32 or float64 as stored; faces: (m, 3) int vertex ids, or None
-    for a triangle soup (binary STL: vertices are the 3m corners, triangle i = rows 3i..3i+2).
+    for a triangle soup, whose vertices are the corners: (m, 3, 3) (binary STL: a view of
+    the mapped file) or (3m, 3) (triangle i = rows 3i..3i+2).
     """
 
     vertices: np.ndarray
@@ -39,7 +40,9 @@ class RawMesh:
 
     @property
     def n_faces(self):
-        return len(self.vertices) // 3 if self.faces is None else len(self.faces)
+        if self.faces is not None:
+            return len(self.faces)
+        return len(self.vertices) if self.vertices.ndim == 3 else len(self.vertices) // 3
 
 
 def _binary_stl_count(path, size):
@@ -53,15 +56,15 @@ def _binary_stl_count(path, size):
 
 
 def read_stl(path):
-    """Binary STL as one structured read; ASCII STL through trimesh."""
+    """Binary STL as a structured view of the mapped file; ASCII STL through trimesh."""
     size = os.path.getsize(path)
     count = _binary_stl_count(path, size)
     if count is None:
         return _trimesh_reader(path, "stl")
     if count == 0:
         raise InputError("mesh file %s has no triangles (empty mesh)" % path)
-    records = np.fromfile(path, dtype=STL_RECORD, offset=STL_HEADER)
-    return RawMesh(np.ascontiguousarray(records["corners"]).reshape(-1, 3))
+    records = np.memmap(path, dtype=STL_RECORD, mode="r", offset=STL_HEADER, shape=(count,))
+    return RawMesh(records["corners"])
 
 
 def _ply_header(fh):

@@ -122,11 +122,12 @@ def unique_rows(B):
 
 def weld_exact(V, F=None):
     """Merge vertices with bit-identical coordinates (-0.0 equals 0.0), keeping the order of
-    first occurrence. F None: V is a triangle soup (triangle i = rows 3i..3i+2). Float32
-    vertices are compared as stored (their float64 values are the same points). Returns
-    (float64 vertices, faces, number merged)."""
+    first occurrence. F None: V is a triangle soup, its (m, 3, 3) corners or 3m rows
+    (triangle i = rows 3i..3i+2). Float32 vertices are compared as stored (their float64
+    values are the same points). Returns (float64 vertices, faces, number merged)."""
     Vc = np.asarray(V)
     Vc = Vc + Vc.dtype.type(0.0) if Vc.dtype in (np.float32, np.float64) else Vc.astype(np.float64) + 0.0
+    Vc = Vc.reshape(-1, 3)
     first, inverse = unique_rows(Vc)
     merged = len(Vc) - len(first)
     if F is None:
