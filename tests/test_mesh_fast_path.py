@@ -180,10 +180,10 @@ def test_collisions_of_the_weld_hash_fall_back_to_the_exact_grouping(monkeypatch
     expect = ref.weld(soup)
     from hullprod_wb.mesh import weld
 
-    def four_slots(words, bits):  # four hash values: nearly every corner collides
-        h = words[0] & np.uint64(3)
-        return h, h.astype(np.intp)
-    monkeypatch.setattr(weld, "hash_slots", four_slots)
+    def four_values(words):  # four hash values: nearly every corner collides
+        return words[0] & np.uint64(3)
+    monkeypatch.setattr(weld, "row_hashes", four_values)
+    monkeypatch.setattr(weld, "hash_slots", lambda words, bits: four_values(words).astype(np.intp))
     got = loading.weld_exact(soup)
     assert np.array_equal(got[0], expect[0]) and np.array_equal(got[1], expect[1])
 

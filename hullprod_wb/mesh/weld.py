@@ -37,26 +37,29 @@ def row_words(B):
     return [rec[name] for name, _ in fields]
 
 
+def row_hashes(words):
+    """(k,) uint64 hash of the rows given as words (multiply, xor and shift finaliser)."""
+    with np.errstate(over="ignore"):
+        z = words[0] * _K[0]
+        for j, w in enumerate(words[1:]):
+            z ^= w * _K[1 + j % 3]
+        z ^= z >> np.uint64(31)
+        z *= _K[3]
+        z ^= z >> np.uint64(29)
+    return z
+
+
 def hash_slots(words, bits):
-    """((k,) uint64 hash, (k,) intp slot: its leading bits) of the rows given as words
-    (multiply, xor and shift finaliser), over blocks on default_threads() threads."""
+    """(k,) intp slots of the rows given as words: the leading bits of their row_hashes,
+    over blocks on default_threads() threads."""
     k = len(words[0])
-    h = np.empty(k, dtype=np.uint64)
     slot = np.empty(k, dtype=np.intp)
     shift = np.uint64(64 - bits)
 
     def block(sl):
-        with np.errstate(over="ignore"):
-            z = words[0][sl] * _K[0]
-            for j, w in enumerate(words[1:]):
-                z ^= w[sl] * _K[1 + j % 3]
-            z ^= z >> np.uint64(31)
-            z *= _K[3]
-            z ^= z >> np.uint64(29)
-        h[sl] = z
-        slot[sl] = z >> shift
+        slot[sl] = row_hashes([w[sl] for w in words]) >> shift
     run_blocks(block, [slice(a, min(a + BLOCK, k)) for a in range(0, k, BLOCK)], default_threads())
-    return h, slot
+    return slot
 
 
 def _exact_groups(B):
@@ -70,18 +73,19 @@ def _exact_groups(B):
 
 
 def _lowest_equal(words):
-    """(k,) int64: the lowest index of the row equal to each row, by the rounds of the module
+    """(k,) int: the lowest index of the row equal to each row, by the rounds of the module
     docstring; None when they do not settle (or the writes did not keep the lowest index)."""
     k = len(words[0])
     bits = max(4, int(2 * k - 1).bit_length())
     mask = (1 << bits) - 1
-    h, slot = hash_slots(words, bits)
-    table = np.empty(1 << bits, dtype=np.int32 if k < 2 ** 31 else np.int64)
-    ids = np.arange(k)
-    rep = None
+    slot = hash_slots(words, bits)
+    itype = np.int32 if k < 2 ** 31 else np.int64
+    table = np.empty(1 << bits, dtype=itype)
+    ids = np.arange(k, dtype=itype)
+    rep, step = None, None
     for _ in range(MAX_ROUNDS):
         table[slot[::-1]] = ids[::-1]
-        cand = table[slot].astype(np.int64)
+        cand = table[slot]
         if np.any(cand > ids):          # the writes did not keep the lowest index
             return None
         same = np.ones(len(ids), dtype=bool)
@@ -94,8 +98,11 @@ def _lowest_equal(words):
         if same.all():
             return rep
         lost = ~same
-        ids, slot, h = ids[lost], slot[lost], h[lost]
-        slot += (h & np.uint64(mask)).astype(np.intp) | 1     # odd step: visits every slot
+        ids, slot = ids[lost], slot[lost]
+        # odd step, from the other bits of the hash: visits every slot
+        step = (row_hashes([w[ids] for w in words]) & np.uint64(mask)).astype(np.intp) | 1 \
+            if step is None else step[lost]
+        slot += step
         slot &= mask
     return None
 
@@ -112,7 +119,7 @@ def unique_rows(B):
     rep = _lowest_equal(row_words(B))
     if rep is None:
         return _exact_groups(B)
-    first = np.flatnonzero(rep == np.arange(k))
+    first = np.flatnonzero(rep == np.arange(k, dtype=rep.dtype))
     if len(first) == k:
         return first, first
     rank = np.empty(k, dtype=np.int64)
