@@ -272,3 +272,23 @@ def test_mesh_json_names_no_freecad_version_unless_loaded(tmp_path):
                          env=dict(os.environ, PYTHONPATH=ROOT), timeout=120)
     software, loaded = json.loads(out.stdout)
     assert not loaded and software["FreeCAD"] is None and software["numpy"] == np.__version__
+
+
+def test_frame_u_is_the_first_least_aligned_axis_made_tangent():
+    """u of the vertex frames: the coordinate axis of least |n_i| (the first of equal ones,
+    as np.argmin picks it) made orthogonal to n, bit for bit; ties and signs included."""
+    from hullprod_wb.mesh.curvature import _dot, frame_u
+    rng = np.random.default_rng(8)
+    N = rng.normal(size=(3, 3000))
+    N[:, :500] = np.round(N[:, :500])                      # many equal components
+    N[2, :500][~np.any(N[:, :500], axis=0)] = 1.0          # (no zero normal)
+    N[:, 500:600] = 1.0
+    N[2, 600:700] = -N[1, 600:700]
+    N[:, 700] = (0.0, 0.0, 1.0)
+    N /= np.sqrt(_dot(N, N))
+    k = np.argmin(np.abs(N), axis=0)
+    u = np.zeros_like(N)
+    u[k, np.arange(N.shape[1])] = 1.0
+    u -= N * _dot(u, N)
+    u /= np.sqrt(_dot(u, u))
+    assert np.all(np.isfinite(N)) and np.array_equal(frame_u(N, np.empty_like(N)), u)

@@ -84,7 +84,8 @@ def open_mesh(source, progress=None):
 def strict_interior(F, boundary, valid):
     """valid less every vertex sharing a triangle with a boundary vertex, (n,) bool."""
     near = np.zeros(len(valid), dtype=bool)
-    near[F[boundary[F].any(axis=1)].ravel()] = True
+    touches = boundary[F[:, 0]] | boundary[F[:, 1]] | boundary[F[:, 2]]
+    near[F[touches].ravel()] = True
     return valid & ~near
 
 

@@ -139,9 +139,12 @@ def frame_u(normals, out):
     u is the coordinate axis least aligned with n, made orthogonal to n; the choice
     depends on the normal only, so the results do not depend on the face order.
     """
-    k = np.argmin(np.abs(normals), axis=0)
-    out[...] = 0.0
-    out[k, np.arange(normals.shape[1])] = 1.0
+    a0, a1, a2 = np.abs(normals)
+    first = (a0 <= a1) & (a0 <= a2)        # the first axis of least |n_i|, as argmin picks it
+    second = ~first & (a1 <= a2)
+    np.copyto(out[0], first)
+    np.copyto(out[1], second)
+    np.copyto(out[2], ~first & ~second)
     out -= normals * _dot(out, normals)
     out /= np.sqrt(_dot(out, out))
     return out

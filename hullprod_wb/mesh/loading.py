@@ -180,7 +180,8 @@ def orient_faces(V, F, table):
     if flip.any():
         out = F.copy()
         out[flip] = out[flip][:, ::-1]
-    open_face = (table.side_count() != 2).any(axis=1) | non_orientable
+    sc = table.side_count()
+    open_face = (sc[:, 0] != 2) | (sc[:, 1] != 2) | (sc[:, 2] != 2) | non_orientable
     if npieces == 1:
         piece_open = np.array([open_face.any()])
     else:
@@ -216,7 +217,8 @@ def duplicate_face_count(F, table):
     nb = face_neighbours(table, len(F))
     twin = (nb[:, 0] >= 0) & (nb[:, 0] == nb[:, 1]) & (nb[:, 1] == nb[:, 2])
     count = int(np.count_nonzero(twin)) // 2
-    shared = (table.side_count() > 2).any(axis=1)
+    sc = table.side_count()
+    shared = (sc[:, 0] > 2) | (sc[:, 1] > 2) | (sc[:, 2] > 2)
     if shared.any():
         sub = np.sort(F[shared], axis=1)
         count += len(sub) - len(unique_rows(sub)[0])
