@@ -85,12 +85,9 @@ def _lowest_equal(words):
     rep, step = None, None
     for _ in range(MAX_ROUNDS):
         table[slot[::-1]] = ids[::-1]
-        cand = table[slot]
-        if np.any(cand > ids):          # the writes did not keep the lowest index
+        cand, same, lowest = _winners(table, slot, ids, words, first_round=rep is None)
+        if not lowest:                  # the writes did not keep the lowest index
             return None
-        same = np.ones(len(ids), dtype=bool)
-        for w in words:
-            same &= w[cand] == (w if rep is None else w[ids])
         if rep is None:
             rep = cand
         else:
@@ -105,6 +102,27 @@ def _lowest_equal(words):
         slot += step
         slot &= mask
     return None
+
+
+def _winners(table, slot, ids, words, first_round):
+    """(winner of each pending row's slot, (p,) bool: its words equal the winner's, whether
+    every winner is at most its row's index) of one round, over blocks on
+    default_threads() threads (the table is only read here). In the first round the
+    pending rows are all rows, ids = 0..k-1."""
+    p = len(ids)
+    cand = np.empty(p, dtype=table.dtype)
+    same = np.empty(p, dtype=bool)
+    lowest = []
+
+    def block(sl):
+        c = table[slot[sl]]
+        lowest.append(bool(np.all(c <= ids[sl])))
+        eq = np.ones(len(c), dtype=bool)
+        for w in words:
+            eq &= w[c] == (w[sl] if first_round else w[ids[sl]])
+        cand[sl], same[sl] = c, eq
+    run_blocks(block, [slice(a, min(a + BLOCK, p)) for a in range(0, p, BLOCK)], default_threads())
+    return cand, same, all(lowest)
 
 
 def unique_rows(B):
