@@ -136,7 +136,11 @@ class EdgeTable:
         if cached is not None and cached[0] is faces:
             return cached[1]
         F = np.asarray(faces)
-        forward = (F < F[:, [1, 2, 0]]).ravel()   # side runs lo -> hi
+        forward = np.empty(F.shape, dtype=bool)   # side runs lo -> hi
+        np.less(F[:, 0], F[:, 1], out=forward[:, 0])
+        np.less(F[:, 1], F[:, 2], out=forward[:, 1])
+        np.less(F[:, 2], F[:, 0], out=forward[:, 2])
+        forward = forward.ravel()
         same = forward[self.pair_sides[:, 0]] == forward[self.pair_sides[:, 1]]
         self._same = (faces, same)
         return same
