@@ -44,7 +44,6 @@ from .curvature import vertex_curvature
 from .loading import file_record, load_prepared, prepared_from_arrays, \
     prepared_from_freecad, prepared_from_trimesh
 from .memory import check_memory
-from .quality import mesh_quality
 
 #: Share of the represented area outside the valid domain above which values are MESH-SENSITIVE.
 EXCLUDED_AREA_SENSITIVE = 0.05
@@ -61,20 +60,20 @@ def open_mesh(source, progress=None):
         path, fmt, _ = checked_path(source, "mesh")
         check_memory(path, fmt)
         start_sha256(path)        # digested beside the reading
-        mesh = load_prepared(path, progress)
+        mesh = load_prepared(path, progress, with_quality=True)
         info = {"path": path, "format": fmt, "representation": "mesh"}
         info.update(file_record(path))
         return mesh, info
     if type(source).__module__.startswith("trimesh"):
         if not hasattr(source, "faces"):
             raise InputError("a trimesh %s is not a triangle mesh" % type(source).__name__)
-        return prepared_from_trimesh(source), {"path": None, "sha256": None, "format": "trimesh",
+        return prepared_from_trimesh(source, with_quality=True), {"path": None, "sha256": None, "format": "trimesh",
                                            "representation": "mesh"}
     if isinstance(source, (tuple, list)) and len(source) == 2:
-        return prepared_from_arrays(*source), {"path": None, "sha256": None, "format": "arrays",
+        return prepared_from_arrays(*source, with_quality=True), {"path": None, "sha256": None, "format": "arrays",
                                            "representation": "mesh"}
     if hasattr(source, "Topology") or hasattr(source, "Mesh"):  # Mesh.Mesh or a Mesh::Feature
-        mesh = prepared_from_freecad(source)
+        mesh = prepared_from_freecad(source, with_quality=True)
         return mesh, {"path": None, "sha256": None, "format": "FreeCAD mesh", "representation": "mesh",
                       "name": getattr(source, "Label", None)}
     raise InputError("cannot assess %s as a triangle mesh: give a .stl/.obj/.ply path, a trimesh, "
@@ -149,18 +148,16 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
     t1 = time.perf_counter()
     timings["load_s"] = t1 - t0
 
-    progress(0.2, "mesh quality")
-    quality = mesh_quality(mesh)
+    quality = mesh.quality          # measured during the loading, beside the orientation
+    timings["quality_s"] = mesh.quality_seconds
     flags = mesh.table.vertex_flags(len(V))
     face_area = mesh.measures.area  # for the reference length
     del mesh              # the edge table and the other triangle measures: not needed any more
-    t2 = time.perf_counter()
-    timings["quality_s"] = t2 - t1
 
     progress(0.4, "curvature of %d vertices" % len(V))
     curv = vertex_curvature(V, F, flags=flags)
     t3 = time.perf_counter()
-    timings["curvature_s"] = t3 - t2
+    timings["curvature_s"] = t3 - t1
 
     progress(0.8, "signature")
     A = curv.vertex_area

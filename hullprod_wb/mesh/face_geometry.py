@@ -98,6 +98,12 @@ def face_measures(V, F):
     return out
 
 
+def vertex_areas(F, area, n):
+    """(n,) barycentric node areas: A_t / 3 summed over the triangles t at each node
+    (eq:vertex_area), corner by corner in face order."""
+    return np.bincount(np.ravel(F), weights=np.repeat(area / 3.0, 3), minlength=n)
+
+
 def unit_normals(V, F):
     """(3, m) unit normals (p1 - p0) x (p2 - p0) / |...| of the faces (NaN where zero)."""
     m = len(F)

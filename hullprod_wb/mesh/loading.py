@@ -22,6 +22,7 @@ record of all this is the PreparedMesh's info, ``mesh.metadata['hullprod']`` of 
 trimesh.Trimesh that :func:`load_mesh` returns.
 """
 import os
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -31,6 +32,7 @@ from ..core.errors import InputError
 from ..core.inputs import checked_path, sha256_file
 from .curvature import check_arrays, check_faces
 from .face_geometry import face_measures
+from .quality import finished_record, measured_record
 from .readers import read_mesh_file
 from .topology import edge_table, face_neighbours, import_sparse_in_background
 from .weld import unique_rows, weld_exact
@@ -52,7 +54,7 @@ def load_mesh(path):
     return load_prepared(path).to_trimesh()
 
 
-def load_prepared(path, progress=None):
+def load_prepared(path, progress=None, with_quality=False):
     """Read and prepare a mesh file: a PreparedMesh (see :func:`prepare`)."""
     path, fmt, _ = checked_path(path, "mesh")
     import_sparse_in_background()
@@ -60,7 +62,7 @@ def load_prepared(path, progress=None):
     progress(0.0, "reading %s" % os.path.basename(path))
     raw = read_mesh_file(path, fmt)
     source = {"kind": "file", "path": path, "format": fmt}
-    return prepare(raw.vertices, raw.faces, source, progress)
+    return prepare(raw.vertices, raw.faces, source, progress, with_quality)
 
 
 def mesh_from_arrays(vertices, faces, name="arrays"):
@@ -68,10 +70,10 @@ def mesh_from_arrays(vertices, faces, name="arrays"):
     return prepared_from_arrays(vertices, faces, name).to_trimesh()
 
 
-def prepared_from_arrays(vertices, faces, name="arrays"):
+def prepared_from_arrays(vertices, faces, name="arrays", with_quality=False):
     """mesh_from_arrays as a PreparedMesh."""
     V, F = check_arrays(np.array(vertices, dtype=float, copy=True), np.array(faces, copy=True))
-    return prepare(V, F, {"kind": "arrays", "name": name})
+    return prepare(V, F, {"kind": "arrays", "name": name}, with_quality=with_quality)
 
 
 def mesh_from_trimesh(mesh):
@@ -79,12 +81,13 @@ def mesh_from_trimesh(mesh):
     return prepared_from_trimesh(mesh).to_trimesh()
 
 
-def prepared_from_trimesh(mesh):
+def prepared_from_trimesh(mesh, with_quality=False):
     """mesh_from_trimesh as a PreparedMesh."""
     source = {"kind": "trimesh"}
     if getattr(mesh, "metadata", None) and "file_name" in mesh.metadata:
         source["name"] = mesh.metadata["file_name"]
-    return prepare(np.array(mesh.vertices, dtype=float), np.array(mesh.faces), source)
+    return prepare(np.array(mesh.vertices, dtype=float), np.array(mesh.faces), source,
+                   with_quality=with_quality)
 
 
 def mesh_from_freecad(obj):
@@ -95,7 +98,7 @@ def mesh_from_freecad(obj):
     return prepared_from_freecad(obj).to_trimesh()
 
 
-def prepared_from_freecad(obj):
+def prepared_from_freecad(obj, with_quality=False):
     """mesh_from_freecad as a PreparedMesh."""
     from ..freecad_env import import_freecad
     import_freecad()
@@ -113,7 +116,7 @@ def prepared_from_freecad(obj):
         raise InputError("the FreeCAD mesh has no facets")
     V = np.array(points, dtype=float).reshape(-1, 3)
     F = np.array(facets, dtype=np.int64).reshape(-1, 3)
-    return prepare(V, F, source)
+    return prepare(V, F, source, with_quality=with_quality)
 
 
 def degenerate_faces(V, F):
@@ -153,7 +156,7 @@ def orient_faces(V, F, table):
     agrees already, the components are the pieces of the face graph and nothing flips.)
     A piece with no boundary and no non-manifold edge is then flipped as a whole if its
     signed volume sum(p0 . (p1 x p2))/6 is negative. Returns (faces, info dict, (m,) bool
-    reversed faces); the table is updated for the reversed faces.
+    reversed faces); the table is left as it is (EdgeTable.flip_faces updates it).
     """
     m = len(F)
     pairs, same = table.pairs, table.same_direction(F)
@@ -194,7 +197,6 @@ def orient_faces(V, F, table):
         out = F.copy() if out is F else out
         out[inv] = out[inv][:, ::-1]
     reversed_faces = flip ^ inv
-    table.flip_faces(reversed_faces)
     info = {
         "winding_flipped_faces": int(np.count_nonzero(flip)),
         "inverted_closed_pieces": int(np.count_nonzero(invert_piece)),
@@ -230,7 +232,9 @@ class PreparedMesh:
     """A mesh after preparation (module docstring) with what was derived on the way.
 
     vertices (n, 3) float64; faces (m, 3) int64 (oriented); info: the preparation record;
-    table: topology.EdgeTable of the faces; measures: face_geometry.FaceMeasures.
+    table: topology.EdgeTable of the faces; measures: face_geometry.FaceMeasures; quality:
+    the quality record (quality.mesh_quality) when prepared with it, else None;
+    quality_seconds: the wall time its measurement took.
     """
 
     vertices: np.ndarray
@@ -238,6 +242,8 @@ class PreparedMesh:
     info: dict
     table: object
     measures: object
+    quality: dict = None
+    quality_seconds: float = 0.0
 
     def to_trimesh(self):
         """trimesh.Trimesh of the prepared mesh with metadata['hullprod'] = info."""
@@ -254,9 +260,11 @@ def prepare_mesh(vertices, faces, source):
     return prepare(vertices, faces, source).to_trimesh()
 
 
-def prepare(vertices, faces, source, progress=None):
+def prepare(vertices, faces, source, progress=None, with_quality=False):
     """prepare_mesh's work: a PreparedMesh. faces None: vertices are a triangle soup.
-    progress(fraction within the loading, message) is told of each step."""
+    progress(fraction within the loading, message) is told of each step. with_quality:
+    also the quality record (quality.mesh_quality), measured on a second thread while the
+    winding is made consistent, and again after it should any face have been reversed."""
     progress = progress or (lambda fraction, message: None)
     where = source.get("path") or source.get("name") or source.get("label") or source.get("kind")
     V, F = check_raw_arrays(vertices, faces, where)
@@ -298,15 +306,37 @@ def prepare(vertices, faces, source, progress=None):
     if info["nonmanifold_edges"] == info["edges"]:
         raise InputError("every edge of %s is shared by more than two triangles; no usable surface"
                          % where)
-    info["duplicate_faces"] = duplicate_face_count(F, table)
-    progress(0.8, "orientation")
-    F, orient, reversed_faces = orient_faces(V, F, table)
-    if reversed_faces.any():  # the measures of the reversed faces as their new winding gives them
+    progress(0.8, "orientation and quality record" if with_quality else "orientation")
+    measured, seconds = None, 0.0
+    pool = ThreadPoolExecutor(max_workers=1) if with_quality else None
+    try:  # the quality record measured beside the orientation: it stands if no face turns
+        side = pool.submit(_timed, measured_record, V, F, table, measures) if pool else None
+        info["duplicate_faces"] = duplicate_face_count(F, table)
+        F, orient, reversed_faces = orient_faces(V, F, table)
+        if side is not None:
+            measured, seconds = side.result()
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    if reversed_faces.any():
+        table.flip_faces(reversed_faces)
+        # the measures of the reversed faces as their new winding gives them
         measures.put(reversed_faces, face_measures(V, F[reversed_faces]))
+        measured = None
     info.update(orient)
     info["vertices"] = int(len(V))
     info["faces"] = int(len(F))
-    return PreparedMesh(V, F, info, table, measures)
+    quality = None
+    if with_quality:
+        if measured is None:
+            measured, seconds = _timed(measured_record, V, F, table, measures)
+        quality = finished_record(measured, info, table)
+    return PreparedMesh(V, F, info, table, measures, quality, seconds)
+
+
+def _timed(fn, *args):
+    t = time.perf_counter()
+    return fn(*args), time.perf_counter() - t
 
 
 def check_raw_arrays(vertices, faces, where="the mesh"):

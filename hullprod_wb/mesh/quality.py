@@ -33,7 +33,7 @@ import numpy as np
 
 from .curvature import check_arrays
 from .threads import default_threads
-from .face_geometry import edge_lengths, face_measures, normal_angles, unit_normals
+from .face_geometry import edge_lengths, face_measures, normal_angles, unit_normals, vertex_areas
 from .topology import edge_table
 
 #: Percentiles of every distribution summary.
@@ -102,13 +102,10 @@ def _components(n, edges):
 
 
 def _parts(mesh):
-    """(V, F, preparation record, EdgeTable, FaceMeasures, connected components or None)
-    of a PreparedMesh (its own table and measures), trimesh.Trimesh or (V, F)."""
+    """(V, F, preparation record, EdgeTable, FaceMeasures) of a PreparedMesh (its own table
+    and measures), trimesh.Trimesh or (V, F)."""
     if hasattr(mesh, "table") and hasattr(mesh, "measures"):   # loading.PreparedMesh
-        info = mesh.info
-        # every vertex of a prepared mesh is used, so one piece is one component
-        comps = 1 if info.get("pieces") == 1 else None
-        return mesh.vertices, mesh.faces, info, mesh.table, mesh.measures, comps
+        return mesh.vertices, mesh.faces, mesh.info, mesh.table, mesh.measures
     if isinstance(mesh, tuple):
         V, F = check_arrays(*mesh)
         prep = {}
@@ -116,7 +113,7 @@ def _parts(mesh):
         V, F = check_arrays(np.asarray(mesh.vertices), np.asarray(mesh.faces))
         meta = getattr(mesh, "metadata", None) or {}
         prep = meta.get("hullprod", {})
-    return V, F, prep, edge_table(F, len(V)), face_measures(V, F), None
+    return V, F, prep, edge_table(F, len(V)), face_measures(V, F)
 
 
 def mesh_quality(mesh):
@@ -124,14 +121,24 @@ def mesh_quality(mesh):
     trimesh.Trimesh or (V, F)).
 
     Returns a JSON-ready dict: counts, areas, topology, distributions (min/p01/p05/median/
-    p95/p99/max/mean) and the advisory with its reasons (module docstring).
+    p95/p99/max/mean) and the advisory with its reasons (module docstring). A PreparedMesh
+    prepared with its quality record gives that record.
     """
-    V, F, prep, table, fm, components = _parts(mesh)
+    if getattr(mesh, "quality", None) is not None:
+        return mesh.quality
+    V, F, prep, table, fm = _parts(mesh)
+    return finished_record(measured_record(V, F, table, fm), prep, table)
+
+
+def measured_record(V, F, table, fm):
+    """The part of the quality record measured on the triangles (V, F) with their EdgeTable
+    and FaceMeasures: everything but the connected components, what the preparation
+    reports and the advisory (finished_record adds them)."""
     n, m = len(V), len(F)
     ne = len(table.count)
     area, q, amin, amax = fm.area, fm.quality, fm.min_angle, fm.max_angle
     total = float(area.sum())
-    vertex_area = np.bincount(F.ravel(), weights=np.repeat(area / 3.0, 3), minlength=n)
+    vertex_area = vertex_areas(F, area, n)
     be = table.edges[table.count == 1]
     bnd, nmv = table.vertex_flags(n)
     n_nme = int(np.count_nonzero(table.count > 2))
@@ -144,11 +151,9 @@ def mesh_quality(mesh):
     interior_edges = int(len(nvar))
     sharp = int(np.count_nonzero(nvar > SHARP_EDGE_DEG))
     vhist = np.bincount(valence)
-    if components is None:
-        components = _components(n, table.edges)
     dist = summaries({"triangle_quality": q, "min_angle_deg": amin, "max_angle_deg": amax,
                       "edge_length": lengths, "vertex_area": vertex_area, "normal_variation_deg": nvar})
-    out = {
+    return {
         "counts": {"vertices": n, "faces": m, "edges": ne},
         "total_area": total,
         "boundary": {
@@ -160,11 +165,7 @@ def mesh_quality(mesh):
         },
         "nonmanifold": {"edges": n_nme, "vertices": int(nmv.sum())},
         "inconsistent_winding_edges": int(np.count_nonzero(same)),
-        "connected_components": components,
         "watertight": bool(len(be) == 0 and n_nme == 0),
-        "degenerate_faces_removed": int(prep.get("degenerate_faces_removed", 0)),
-        "duplicate_faces": int(prep.get("duplicate_faces", 0)),
-        "non_orientable_faces": int(prep.get("non_orientable_faces", 0)),
         "triangle_quality": dist["triangle_quality"],
         "sliver_fraction": float(np.mean(q < SLIVER_Q)) if m else 0.0,
         "low_quality_fraction": float(np.mean(q < LOW_Q)) if m else 0.0,
@@ -183,6 +184,23 @@ def mesh_quality(mesh):
                                      above_30deg=sharp,
                                      note="diagnostic only, never part of the signature"),
     }
+
+
+def finished_record(measured, prep, table):
+    """The quality record: measured_record with the connected components (of the vertex
+    graph of table's edges; 1 when the preparation found one piece, every vertex of a
+    prepared mesh being used), the counts the preparation reports (prep) and the advisory."""
+    n = measured["counts"]["vertices"]
+    components = 1 if prep.get("pieces") == 1 else _components(n, table.edges)
+    out = {}
+    for key, value in measured.items():
+        out[key] = value
+        if key == "inconsistent_winding_edges":
+            out["connected_components"] = components
+        elif key == "watertight":
+            out["degenerate_faces_removed"] = int(prep.get("degenerate_faces_removed", 0))
+            out["duplicate_faces"] = int(prep.get("duplicate_faces", 0))
+            out["non_orientable_faces"] = int(prep.get("non_orientable_faces", 0))
     out["advisory"], out["reasons"] = advisory(out)
     return out
 
