@@ -336,34 +336,58 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     for c, total in enumerate(_vertex_sums(fc, [[cn[j][c] for j in range(3)] for c in range(3)], n, threads)):
         nv[c] = total
     del cn
-    nlen = np.sqrt(_dot(nv, nv))
-    has_normal = nlen > 0
-    nv /= np.where(has_normal, nlen, 1.0)
-    frame_u(np.where(has_normal, nv, [[0.0], [0.0], [1.0]]), uf)
+    has_normal = np.empty(n, dtype=bool)
+    vblocks = _blocks(n)
+    run_blocks(lambda sl: _frame_block(nv, uf, has_normal, sl), vblocks, threads)
 
     # 2-3. Face tensors carried to the corners, accumulated with the corner areas.
     acc = buffer.reshape(4, 3, m)
     run_blocks(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
     kmean, kx, ky, wsum = _vertex_sums(fc, acc, n, threads)
     del acc, buffer
-    vf = _cross(np.where(has_normal, nv, [[0.0], [0.0], [1.0]]), uf)
 
     # 4. Eigen-decomposition of the vertex tensors [[mean + X, Y], [Y, mean - X]].
-    usable = has_normal & (wsum > 0)
+    out = {name: np.empty(n) for name in ("k1", "k2", "H", "K")}
+    d1, d2 = np.empty((3, n)), np.empty((3, n))
+    run_blocks(lambda sl: _eigen_block(nv, uf, has_normal, (kmean, kx, ky, wsum), out, d1, d2, sl),
+               vblocks, threads)
+    boundary, nonmanifold = vertex_flags(F, n) if flags is None else flags
+    vertex_area = _vertex_sums(fc, [[area] * 3], n, threads)[0] / 3.0
+    return MeshCurvature(normals=nv.T, k1=out["k1"], k2=out["k2"], H=out["H"], K=out["K"], dir1=d1.T,
+                         dir2=d2.T, boundary=boundary, nonmanifold=nonmanifold,
+                         vertex_area=vertex_area, mixed_area=wsum)
+
+
+def _frame_block(nv, uf, has_normal, sl):
+    """Normalise the summed vertex normals nv[:, sl] and write the frame vectors uf[:, sl]
+    (frame_u; the z axis stands in for a vertex without a normal)."""
+    n_sl = nv[:, sl]
+    nlen = np.sqrt(_dot(n_sl, n_sl))
+    has = has_normal[sl] = nlen > 0
+    n_sl /= np.where(has, nlen, 1.0)
+    frame_u(np.where(has, n_sl, [[0.0], [0.0], [1.0]]), uf[:, sl])
+
+
+def _eigen_block(nv, uf, has_normal, sums, out, d1, d2, sl):
+    """Principal curvatures and directions of the vertices sl from the corner-area weighted
+    tensor sums (kmean, kx, ky, wsum) (step 4 of the module docstring); NaN normals where a
+    vertex has none."""
+    kmean, kx, ky, wsum = (a[sl] for a in sums)
+    has = has_normal[sl]
+    u = uf[:, sl]
+    v = _cross(np.where(has, nv[:, sl], [[0.0], [0.0], [1.0]]), u)
+    usable = has & (wsum > 0)
     wi = np.where(usable, 1.0 / np.where(usable, wsum, 1.0), np.nan)
     kmean *= -wi  # shape operator -W: the sign convention of eq:brephk
     kx *= -wi
     ky *= -wi
     rad = np.hypot(kx, ky)
-    k1 = kmean + rad
-    k2 = kmean - rad
+    k1 = out["k1"][sl] = kmean + rad
+    k2 = out["k2"][sl] = kmean - rad
+    out["H"][sl] = 0.5 * (k1 + k2)
+    out["K"][sl] = k1 * k2
     theta = 0.5 * np.arctan2(ky, kx)
     ct, st = np.cos(theta), np.sin(theta)
-    d1 = ct * uf + st * vf
-    d2 = ct * vf - st * uf
-    nv[:, ~has_normal] = np.nan
-    boundary, nonmanifold = vertex_flags(F, n) if flags is None else flags
-    vertex_area = _vertex_sums(fc, [[area] * 3], n, threads)[0] / 3.0
-    return MeshCurvature(normals=nv.T, k1=k1, k2=k2, H=0.5 * (k1 + k2), K=k1 * k2, dir1=d1.T,
-                         dir2=d2.T, boundary=boundary, nonmanifold=nonmanifold,
-                         vertex_area=vertex_area, mixed_area=wsum)
+    d1[:, sl] = ct * u + st * v
+    d2[:, sl] = ct * v - st * u
+    nv[:, sl][:, ~has] = np.nan
