@@ -11,6 +11,7 @@ import numpy as np
 
 from .constants import LREF_PLAUSIBLE_RATIO
 from .errors import InputError
+from .threads import default_threads, run_blocks
 from .thresholds import check_positive
 
 AUTOMATIC_METHOD = ("principal-axis span: extent of the triangulated surface along the first principal axis of "
@@ -27,24 +28,30 @@ def principal_axis_span(points, triangles, node_area=None, triangle_area=None):
     areas when at hand."""
     P = np.asarray(points, dtype=float).reshape(-1, 3)
     T = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    finite = np.all(np.isfinite(P), axis=1)
+    f = np.isfinite(P)
+    finite = f[:, 0] & f[:, 1] & f[:, 2]
+    del f
     if np.count_nonzero(finite) < 2:
         raise InputError("cannot derive a reference length: fewer than two finite surface points")
-    if finite.all():
+    all_finite = bool(finite.all())
+    if all_finite:
         X = P - P.mean(0)
     else:
         X = np.where(finite[:, None], P - P[finite].mean(0), 0.0)
-        T = T[np.all(finite[T], axis=1)]
+        T = T[finite[T[:, 0]] & finite[T[:, 1]] & finite[T[:, 2]]]
         node_area = triangle_area = None
-    a, b, c = (np.take(X, T[:, k], axis=0) for k in range(3))
-    if triangle_area is None:
-        e1, e2 = b - a, c - a
-        area = 0.5 * np.sqrt((e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]) ** 2
-                             + (e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]) ** 2
-                             + (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) ** 2)
-        del e1, e2
-    else:
-        area = np.asarray(triangle_area, dtype=float)
+    s = np.empty((len(T), 3))       # s_t, the sum of the corners
+    area = np.empty(len(T)) if triangle_area is None else np.asarray(triangle_area, dtype=float)
+    corners = [np.ascontiguousarray(T[:, k]) for k in range(3)]
+
+    def block(sl):
+        a, b, c = (np.take(X, corners[k][sl], axis=0) for k in range(3))
+        if triangle_area is None:
+            area[sl] = _triangle_areas(a, b, c)
+        a += b
+        a += c
+        s[sl] = a
+    run_blocks(block, _blocks(len(T)), default_threads())
     total = area.sum()
     if not total > 0:  # no area: the points' own spread
         Y = X[finite] - X[finite].mean(0)
@@ -53,16 +60,28 @@ def principal_axis_span(points, triangles, node_area=None, triangle_area=None):
         if node_area is None:
             node_area = np.bincount(T.ravel(), weights=np.repeat(area / 3.0, 3), minlength=len(P))
         wX = np.asarray(node_area, dtype=float)[:, None] * X
-        s = a
-        s += b
-        s += c
-        del b, c
         second = 0.25 * (wX.T @ X) + (s.T @ (s * area[:, None])) / 12.0
         mean = wX.sum(0) / total
         cov = second / total - np.outer(mean, mean)
     _, vecs = np.linalg.eigh(cov)
-    along = X[finite] @ vecs[:, -1]
+    along = (X if all_finite else X[finite]) @ vecs[:, -1]
     return float(along.max() - along.min())
+
+
+#: Triangles a block of the corner sums.
+BLOCK = 1 << 15
+
+
+def _blocks(m):
+    return [slice(a, min(a + BLOCK, m)) for a in range(0, m, BLOCK)]
+
+
+def _triangle_areas(a, b, c):
+    """(b,) areas |(b - a) x (c - a)| / 2 of the triangles of corners a, b, c (b, 3)."""
+    e1, e2 = b - a, c - a
+    return 0.5 * np.sqrt((e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]) ** 2
+                         + (e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]) ** 2
+                         + (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) ** 2)
 
 
 @dataclass

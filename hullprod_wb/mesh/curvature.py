@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import InputError
-from .threads import default_threads, iter_parts, run_blocks
+from ..core.threads import default_threads, iter_parts, run_blocks
 from .topology import vertex_flags
 
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.threads import default_threads, run_blocks
 from .curvature import DEGENERATE_RTOL
-from .threads import default_threads, run_blocks
 
 #: Faces per block.
 BLOCK = 1 << 15

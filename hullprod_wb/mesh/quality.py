@@ -31,8 +31,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ..core.threads import default_threads
 from .curvature import check_arrays
-from .threads import default_threads
 from .face_geometry import edge_lengths, face_measures, normal_angles, unit_normals, vertex_areas
 from .topology import edge_table
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .threads import default_threads, run_blocks
+from ..core.threads import default_threads, run_blocks
 
 #: Faces per block of the side pass.
 BLOCK = 1 << 15

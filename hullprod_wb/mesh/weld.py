@@ -15,7 +15,7 @@ group; should that or the number of rounds fail, the rows are grouped by numpy's
 """
 import numpy as np
 
-from .threads import default_threads, run_blocks
+from ..core.threads import default_threads, run_blocks
 
 #: Rounds of the hash table before the exact sort takes over.
 MAX_ROUNDS = 64

@@ -1,6 +1,6 @@
-"""Threads for the mesh path's array passes: numpy's array loops and scipy's sparse
-constructions release the GIL, so passes over disjoint parts of the arrays run side by side
-on the cores (the command's machine: 2 at most are used)."""
+"""Threads for array passes (the mesh path's, the reference length's moments): numpy's array
+loops and scipy's sparse constructions release the GIL, so passes over disjoint parts of
+the arrays run side by side on the cores (the command's machine: 2 at most are used)."""
 import os
 from concurrent.futures import ThreadPoolExecutor
 
