@@ -13,7 +13,7 @@ from .core.inputs import file_representation
 def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
-        return file_representation(source)  # its structure checked, its hash begun
+        return file_representation(source)  # and its structure checked
     if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.record_reader)
         return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):

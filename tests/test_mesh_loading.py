@@ -312,3 +312,22 @@ def test_file_hash_follows_the_file(tmp_path):
         p.write_bytes(content)
         os.utime(p, ns=(10**18 + k, 10**18 + k))
         assert sha256_file(str(p)) == hashlib.sha256(content).hexdigest()
+
+
+def test_no_thread_is_left_once_the_work_is_done(tmp_path):
+    """The file's digest and the mesh path's threads end with their work, so that the
+    process may fork worker processes afterwards (brep.face_pool forks only a process
+    with one thread)."""
+    import threading
+    from hullprod_wb.core.inputs import start_sha256
+    from hullprod_wb.mesh.backend import assess_mesh
+    V, F = torus_mesh(12)
+    p = str(tmp_path / "t.ply")
+    trimesh.Trimesh(V, F, process=False).export(p)
+    start_sha256(p).result()
+    assess_mesh(p)
+    alive = [t for t in threading.enumerate() if t.name.startswith("hullprod") and t.is_alive()]
+    for t in alive:            # the background import may be finishing its last line
+        t.join(5)
+    assert not [t.name for t in alive if t.is_alive()]
+    assert not [t.name for t in threading.enumerate() if t.name.startswith(("hullprod-sha256", "ThreadPool"))]

@@ -3,7 +3,6 @@ import functools
 import hashlib
 import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
 
 from .errors import InputError
 from .file_checks import check_file
@@ -17,44 +16,56 @@ DOCUMENT_FORMATS = {".fcstd": "fcstd"}
 def sha256_file(path):
     """Hex SHA-256 of the file's bytes, computed once for the same path, size and
     modification time (the input record asks for it before the reader and again in it),
-    in the background when start_sha256 began it."""
+    on the thread start_sha256 began for it, if any."""
     return start_sha256(path).result()
 
 
 def start_sha256(path):
-    """Begin the SHA-256 of the file on a background thread (hashlib lets go of the
-    interpreter while it digests, so reading and hashing run side by side); a
-    concurrent.futures.Future of the hex digest, shared by the calls for the same path,
-    size and modification time."""
+    """Begin the SHA-256 of the file on a thread of its own, which ends when the digest is
+    made (hashlib lets go of the interpreter while it digests, so reading and hashing run
+    side by side; once the digest is taken, no thread of it is left, so the process may
+    fork). Returns the Digest, shared by the calls for the same path, size and
+    modification time."""
     st = os.stat(path)
     key = (os.path.abspath(path), st.st_size, st.st_mtime_ns)
-    with _HASHES_LOCK:
-        future = _HASHES.pop(key, None)
-        if future is None:
-            future = _hash_pool().submit(_sha256, key[0])
-        _HASHES[key] = future
-        while len(_HASHES) > MAX_HASHES:
-            _HASHES.pop(next(iter(_HASHES)))
-    return future
+    with _DIGESTS_LOCK:
+        digest = _DIGESTS.pop(key, None) or Digest(key[0])
+        _DIGESTS[key] = digest
+        while len(_DIGESTS) > MAX_DIGESTS:
+            _DIGESTS.pop(next(iter(_DIGESTS)))
+    return digest
+
+
+class Digest:
+    """The SHA-256 of one file, computed on a thread started at construction."""
+
+    def __init__(self, path):
+        self._value = self._error = None
+        self._thread = threading.Thread(target=self._run, args=(path,), name="hullprod-sha256", daemon=True)
+        self._thread.start()
+
+    def _run(self, path, chunk=1 << 20):
+        try:
+            h = hashlib.sha256()
+            with open(path, "rb") as fh:
+                for block in iter(lambda: fh.read(chunk), b""):
+                    h.update(block)
+            self._value = h.hexdigest()
+        except BaseException as exc:  # raised again to the caller of result()
+            self._error = exc
+
+    def result(self):
+        """The hex digest, once the thread has ended (its error, if it had one)."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._value
 
 
 #: Digests kept (the most recent files).
-MAX_HASHES = 64
-_HASHES = {}
-_HASHES_LOCK = threading.Lock()
-
-
-@functools.lru_cache(maxsize=None)
-def _hash_pool():
-    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="hullprod-sha256")
-
-
-def _sha256(path, chunk=1 << 20):
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(chunk), b""):
-            h.update(block)
-    return h.hexdigest()
+MAX_DIGESTS = 64
+_DIGESTS = {}
+_DIGESTS_LOCK = threading.Lock()
 
 
 def checked_path(path, representation=None):
@@ -93,7 +104,6 @@ def describe_file(path):
     file declares, e.g. declared_faces, when its format declares it).
     """
     path, fmt, rep = checked_path(path)
-    start_sha256(path)
     size = os.path.getsize(path)
     declared = checked_structure(path, fmt, size, os.path.getmtime(path))
     info = {"path": path, "sha256": sha256_file(path), "format": fmt, "representation": rep, "size_bytes": size}
@@ -104,9 +114,8 @@ def describe_file(path):
 
 def file_representation(path):
     """'mesh', 'brep' or 'document': the representation of a file that passes
-    describe_file's checks, its SHA-256 begun in the background (start_sha256)."""
+    describe_file's checks, without its hash (the mesh path digests it beside its reading)."""
     path, fmt, rep = checked_path(path)
-    start_sha256(path)
     checked_structure(path, fmt, os.path.getsize(path), os.path.getmtime(path))
     return rep
 
