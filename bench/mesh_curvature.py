@@ -7,7 +7,7 @@
 
 For every file: the median wall time of --repeat runs with the smallest and largest (the
 noise of a shared machine), the median of each phase of the JSON `timings` (load, quality,
-curvature, signature) and the peak resident memory of the command (its own rusage). With
+curvature, signature; the quality record is measured on a second thread inside the load) and the peak resident memory of the command (its own rusage). With
 several sizes, the ratio of the median times 4M / 1M of each format, measured in this
 same run (linear cost: 4x the vertices, about 4x the time). With --reference, the paper's
 reference package (hullprod 1.0.1 from PyPI, in a throwaway virtual environment, a fresh

@@ -24,10 +24,11 @@ from ..core.progress import Cancelled
 #: Interpreter of the assessment process: $HULLPROD_PYTHON, else Debian's Python (the one
 #: that sees FreeCAD's modules; the command line uses it too).
 DEFAULT_PYTHON = "/usr/bin/python3"
-#: Environment of the command line (./hullprod): one BLAS thread, glibc keeps freed heap in
-#: one arena for all threads.
+#: Environment of the command line (./hullprod): one BLAS thread, glibc keeps freed heap (large
+#: arrays' too) in one arena for all threads.
 CLI_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MALLOC_MMAP_THRESHOLD_": "33554432",
-           "MALLOC_TRIM_THRESHOLD_": "134217728", "MALLOC_TOP_PAD_": "67108864", "MALLOC_ARENA_MAX": "1"}
+           "MALLOC_TRIM_THRESHOLD_": "134217728", "MALLOC_TOP_PAD_": "67108864", "MALLOC_ARENA_MAX": "1",
+           "MALLOC_MMAP_MAX_": "0"}
 PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 

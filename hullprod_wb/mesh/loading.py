@@ -15,11 +15,14 @@ Preparation never modifies the caller's object and applies no smoothing or remes
    enclosed volume); the number of flipped triangles is recorded.
 
 Welding, the degenerate test and the topology each take one pass: the vertices are grouped
-by a hash of their coordinates and the sides by their edge keys with linear counting sorts
-(:mod:`.topology`), and the edge table, the triangle measures (:mod:`.face_geometry`) and
-the vertex flags found here are handed on to the quality record and the curvature. The
-record of all this is the PreparedMesh's info, ``mesh.metadata['hullprod']`` of the
-trimesh.Trimesh that :func:`load_mesh` returns.
+by a hash table of their stored bits (:mod:`.weld`), the sides by their edge keys with one
+linear counting sort (:mod:`.topology`, built on a second thread while the triangle
+measures of :mod:`.face_geometry` are taken), and the edge table, the measures and the
+vertex flags found here are handed on to the quality record and the curvature. With
+with_quality, the quality record (:mod:`.quality`) is measured on a second thread while
+the duplicates are counted and the winding made consistent; it stands when no face is
+reversed and is measured again when one is. The record of all this is the PreparedMesh's
+info, ``mesh.metadata['hullprod']`` of the trimesh.Trimesh that :func:`load_mesh` returns.
 """
 import os
 import time

@@ -13,8 +13,8 @@ from ..core.errors import InputError
 from .readers import header_counts
 
 #: Peak bytes per vertex and per triangle of the whole command, with a margin.
-BYTES_PER_VERTEX = 200
-BYTES_PER_FACE = 300
+BYTES_PER_VERTEX = 150
+BYTES_PER_FACE = 280
 #: Interpreter, numpy, scipy: bytes.
 BASE = 150 * 2 ** 20
 #: Copies of the file the reader holds while it parses: the records (STL, PLY), the
