@@ -26,6 +26,7 @@ the boundary treatment.
 """
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -38,7 +39,7 @@ from ..core.progress import null_progress
 from ..core.reference_length import resolve_reference_length
 from ..core.result import Assessment
 from ..core.signature import signature_values
-from ..core.thresholds import Thresholds
+from ..core.thresholds import Thresholds, check_positive
 from ..core.validity import MetricValidity, Status
 from .curvature import vertex_curvature
 from .loading import file_record, load_prepared, prepared_from_arrays, \
@@ -161,15 +162,19 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
 
     progress(0.8, "signature")
     A = curv.vertex_area
-    rl = resolve_reference_length(V, F, A, explicit=lref, triangle_area=face_area)
-    th = Thresholds(rl.value, h_f, k_f)
-    finite = np.isfinite(curv.K) & np.isfinite(curv.H)
-    valid = ~curv.boundary & ~curv.nonmanifold & finite
-    integrals = integrals_from_samples(curv.K, curv.H, A, valid, th.tau_H, th.tau_K, represented_weights=A)
-    values = signature_values(integrals, rl.value)
-    strict = strict_interior(F, curv.boundary, valid)
-    strict_values = signature_values(
-        integrals_from_samples(curv.K, curv.H, A, strict, th.tau_H, th.tau_K), rl.value)
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        # the automatic L_ref: needed first unless one is given, else made beside the integrals
+        reference = pool.submit(resolve_reference_length, V, F, A, explicit=lref, triangle_area=face_area)
+        value = reference.result().value if lref is None else check_positive("reference length L_ref", lref)
+        th = Thresholds(value, h_f, k_f)
+        finite = np.isfinite(curv.K) & np.isfinite(curv.H)
+        valid = ~curv.boundary & ~curv.nonmanifold & finite
+        integrals = integrals_from_samples(curv.K, curv.H, A, valid, th.tau_H, th.tau_K, represented_weights=A)
+        values = signature_values(integrals, value)
+        strict = strict_interior(F, curv.boundary, valid)
+        strict_values = signature_values(
+            integrals_from_samples(curv.K, curv.H, A, strict, th.tau_H, th.tau_K), value)
+        rl = reference.result()
     excluded = {
         "boundary_vertices": int(np.count_nonzero(curv.boundary)),
         "boundary_vertex_area": float(A[curv.boundary].sum()),
