@@ -11,7 +11,7 @@ import numpy as np
 
 from .constants import LREF_PLAUSIBLE_RATIO
 from .errors import InputError
-from .threads import default_threads, run_blocks
+from .threads import blocks, default_threads, run_blocks
 from .thresholds import check_positive
 
 AUTOMATIC_METHOD = ("principal-axis span: extent of the triangulated surface along the first principal axis of "
@@ -51,7 +51,7 @@ def principal_axis_span(points, triangles, node_area=None, triangle_area=None):
         a += b
         a += c
         s[sl] = a
-    run_blocks(block, _blocks(len(T)), default_threads())
+    run_blocks(block, blocks(len(T), BLOCK), default_threads())
     total = area.sum()
     if not total > 0:  # no area: the points' own spread
         Y = X[finite] - X[finite].mean(0)
@@ -70,10 +70,6 @@ def principal_axis_span(points, triangles, node_area=None, triangle_area=None):
 
 #: Triangles a block of the corner sums.
 BLOCK = 1 << 15
-
-
-def _blocks(m):
-    return [slice(a, min(a + BLOCK, m)) for a in range(0, m, BLOCK)]
 
 
 def _triangle_areas(a, b, c):

@@ -14,6 +14,11 @@ def default_threads():
     return max(1, min(2, ncpu))
 
 
+def blocks(m, size):
+    """Slices of size items (the last shorter) covering range(m)."""
+    return [slice(a, min(a + size, m)) for a in range(0, m, size)]
+
+
 def run_blocks(fn, blocks, threads):
     """Apply fn to every block; blocks write disjoint slices, so threads may share them."""
     if threads > 1 and len(blocks) > 1:

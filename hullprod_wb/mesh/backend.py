@@ -68,11 +68,11 @@ def open_mesh(source, progress=None):
     if type(source).__module__.startswith("trimesh"):
         if not hasattr(source, "faces"):
             raise InputError("a trimesh %s is not a triangle mesh" % type(source).__name__)
-        return prepared_from_trimesh(source, with_quality=True), {"path": None, "sha256": None, "format": "trimesh",
-                                           "representation": "mesh"}
+        return prepared_from_trimesh(source, with_quality=True), {
+            "path": None, "sha256": None, "format": "trimesh", "representation": "mesh"}
     if isinstance(source, (tuple, list)) and len(source) == 2:
-        return prepared_from_arrays(*source, with_quality=True), {"path": None, "sha256": None, "format": "arrays",
-                                           "representation": "mesh"}
+        return prepared_from_arrays(*source, with_quality=True), {
+            "path": None, "sha256": None, "format": "arrays", "representation": "mesh"}
     if hasattr(source, "Topology") or hasattr(source, "Mesh"):  # Mesh.Mesh or a Mesh::Feature
         mesh = prepared_from_freecad(source, with_quality=True)
         return mesh, {"path": None, "sha256": None, "format": "FreeCAD mesh", "representation": "mesh",
@@ -169,7 +169,8 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
         th = Thresholds(value, h_f, k_f)
         finite = np.isfinite(curv.K) & np.isfinite(curv.H)
         valid = ~curv.boundary & ~curv.nonmanifold & finite
-        integrals = integrals_from_samples(curv.K, curv.H, A, valid, th.tau_H, th.tau_K, represented_weights=A)
+        integrals = integrals_from_samples(curv.K, curv.H, A, valid, th.tau_H, th.tau_K,
+                                           represented_weights=A)
         values = signature_values(integrals, value)
         strict = strict_interior(F, curv.boundary, valid)
         strict_values = signature_values(

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.threads import default_threads, iter_parts, run_blocks
+from ..core.threads import blocks, default_threads, iter_parts, run_blocks
 from .topology import vertex_flags
 
 
@@ -77,10 +77,17 @@ def check_arrays(vertices, faces, where="the mesh"):
     if V.ndim != 2 or V.shape[1] != 3:
         raise InputError("%s: vertices must be an (n, 3) array, got shape %s" % (where, V.shape))
     F = check_faces(faces, len(V), where)
-    if not np.all(np.isfinite(V)):
-        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
-                         % (where, int(np.count_nonzero(~np.all(np.isfinite(V), axis=1))), len(V)))
+    check_finite(V, where)
     return V, F
+
+
+def check_finite(V, where="the mesh"):
+    """InputError naming the vertices (rows of 3 coordinates, the last axis of V) that are
+    NaN or infinite."""
+    if not np.isfinite(V).all():
+        bad = ~np.isfinite(V).all(axis=-1)
+        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
+                         % (where, int(np.count_nonzero(bad)), bad.size))
 
 
 def check_faces(faces, n, where="the mesh"):
@@ -194,11 +201,6 @@ def _corner_areas(l0, l1, l2, area):
         cj[obtuse] = area[obtuse] * np.where(big[j][obtuse], 0.5, 0.25)
         out.append(cj)
     return out
-
-
-def _blocks(m, size=None):
-    size = size or BLOCK
-    return [slice(a, min(a + size, m)) for a in range(0, m, size)]
 
 
 def _normal_block(Vt, fc, cn, area, sl):
@@ -322,7 +324,7 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     threads = default_threads() if threads is None else max(1, int(threads))
     Vt = np.ascontiguousarray(V.T)
     fc = [np.ascontiguousarray(F[:, j]) for j in range(3)]
-    blocks = _blocks(m)
+    face_blocks = blocks(m, BLOCK)
 
     # 1. Max (1999) vertex normals and the face areas.
     # one buffer for the corner normals and then the corner tensors: its pages are
@@ -330,19 +332,19 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     buffer = np.empty(12 * m)
     cn = buffer[:9 * m].reshape(3, 3, m)      # corner slot, coordinate, face
     area = np.empty(m)
-    run_blocks(lambda sl: _normal_block(Vt, fc, cn, area, sl), blocks, threads)
+    run_blocks(lambda sl: _normal_block(Vt, fc, cn, area, sl), face_blocks, threads)
     frames = np.empty((6, n))                 # (6, n): normal, u
     nv, uf = frames[:3], frames[3:]
     for c, total in enumerate(_vertex_sums(fc, [[cn[j][c] for j in range(3)] for c in range(3)], n, threads)):
         nv[c] = total
     del cn
     has_normal = np.empty(n, dtype=bool)
-    vblocks = _blocks(n)
-    run_blocks(lambda sl: _frame_block(nv, uf, has_normal, sl), vblocks, threads)
+    vertex_blocks = blocks(n, BLOCK)
+    run_blocks(lambda sl: _frame_block(nv, uf, has_normal, sl), vertex_blocks, threads)
 
     # 2-3. Face tensors carried to the corners, accumulated with the corner areas.
     acc = buffer.reshape(4, 3, m)
-    run_blocks(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), blocks, threads)
+    run_blocks(lambda sl: _tensor_block(Vt, fc, frames, acc, sl), face_blocks, threads)
     kmean, kx, ky, wsum = _vertex_sums(fc, acc, n, threads)
     del acc, buffer
 
@@ -350,7 +352,7 @@ def vertex_curvature(vertices, faces, threads=None, flags=None):
     out = {name: np.empty(n) for name in ("k1", "k2", "H", "K")}
     d1, d2 = np.empty((3, n)), np.empty((3, n))
     run_blocks(lambda sl: _eigen_block(nv, uf, has_normal, (kmean, kx, ky, wsum), out, d1, d2, sl),
-               vblocks, threads)
+               vertex_blocks, threads)
     boundary, nonmanifold = vertex_flags(F, n) if flags is None else flags
     vertex_area = _vertex_sums(fc, [[area] * 3], n, threads)[0] / 3.0
     return MeshCurvature(normals=nv.T, k1=out["k1"], k2=out["k2"], H=out["H"], K=out["K"], dir1=d1.T,

@@ -14,21 +14,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.threads import default_threads, run_blocks
+from ..core.threads import blocks, default_threads, run_blocks
 from .curvature import DEGENERATE_RTOL
 
 #: Faces per block.
 BLOCK = 1 << 15
 
 
-def _blocks(m):
-    return [slice(a, min(a + BLOCK, m)) for a in range(0, m, BLOCK)]
-
-
 def _each_block(fn, m):
     """fn(slice) for every block of m items, on default_threads() threads (the blocks
     write disjoint slices)."""
-    run_blocks(fn, _blocks(m), default_threads())
+    run_blocks(fn, blocks(m, BLOCK), default_threads())
 
 
 def _corners(Vt, F, sl):

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.inputs import checked_path, sha256_file
-from .curvature import check_arrays, check_faces
+from .curvature import check_arrays, check_faces, check_finite
 from .face_geometry import face_measures
 from .quality import finished_record, measured_record
 from .readers import read_mesh_file
@@ -311,16 +311,13 @@ def prepare(vertices, faces, source, progress=None, with_quality=False):
                          % where)
     progress(0.8, "orientation and quality record" if with_quality else "orientation")
     measured, seconds = None, 0.0
-    pool = ThreadPoolExecutor(max_workers=1) if with_quality else None
-    try:  # the quality record measured beside the orientation: it stands if no face turns
-        side = pool.submit(_timed, measured_record, V, F, table, measures) if pool else None
+    with ThreadPoolExecutor(max_workers=1) as pool:  # a thread only if a record is measured
+        # the quality record measured beside the orientation: it stands if no face turns
+        side = pool.submit(_timed, measured_record, V, F, table, measures) if with_quality else None
         info["duplicate_faces"] = duplicate_face_count(F, table)
         F, orient, reversed_faces = orient_faces(V, F, table)
         if side is not None:
             measured, seconds = side.result()
-    finally:
-        if pool is not None:
-            pool.shutdown()
     if reversed_faces.any():
         table.flip_faces(reversed_faces)
         # the measures of the reversed faces as their new winding gives them
@@ -355,26 +352,18 @@ def check_raw_arrays(vertices, faces, where="the mesh"):
     if faces is None:
         if not soup and len(V) % 3:
             raise InputError("%s: a triangle soup needs 3 vertices a triangle, got %d" % (where, len(V)))
-        _check_finite(V, where)
+        check_finite(V, where)
         if len(V) == 0:
             raise InputError("%s has no triangles (empty mesh)" % where)
         return V, None
     if V.dtype == np.float64:
         V, F = check_arrays_finite(V, faces, where)
         return V, F
-    _check_finite(V, where)
+    check_finite(V, where)
     F = check_faces(faces, len(V), where)
     if len(F) == 0:
         raise InputError("%s has no triangles (empty mesh)" % where)
     return V, F
-
-
-def _check_finite(V, where):
-    """InputError naming the vertices (rows of 3 coordinates) of V that are NaN or infinite."""
-    if not np.isfinite(V).all():
-        bad = ~np.isfinite(V).all(axis=-1)
-        raise InputError("%s has NaN or infinite coordinates at %d of its %d vertices"
-                         % (where, int(np.count_nonzero(bad)), bad.size))
 
 
 def check_arrays_finite(vertices, faces, where="the mesh"):

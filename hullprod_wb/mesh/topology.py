@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.threads import default_threads, run_blocks
+from ..core.threads import blocks, default_threads, run_blocks
 
 #: Faces per block of the side pass.
 BLOCK = 1 << 15
@@ -47,8 +47,8 @@ def sorted_pairs(rows, cols, n_rows, n_cols):
     from scipy.sparse import coo_matrix
     k = len(rows)
     itype = _index_dtype(max(k, n_rows, n_cols) + 1)
-    A = coo_matrix((np.arange(k, dtype=itype), (rows.astype(itype, copy=False), cols.astype(itype, copy=False))),
-                   shape=(n_rows, n_cols))
+    ij = (rows.astype(itype, copy=False), cols.astype(itype, copy=False))
+    A = coo_matrix((np.arange(k, dtype=itype), ij), shape=(n_rows, n_cols))
     A.has_canonical_format = True      # keep repeated pairs apart: they are what we count
     C = A.tocsr()
     C.has_sorted_indices = False
@@ -76,7 +76,7 @@ def side_ends(faces):
         nxt = np.roll(f, -1, axis=1)
         np.minimum(f, nxt, out=lo[sl])
         np.maximum(f, nxt, out=hi[sl])
-    run_blocks(block, [slice(a, min(a + BLOCK, m)) for a in range(0, m, BLOCK)], default_threads())
+    run_blocks(block, blocks(m, BLOCK), default_threads())
     return lo, hi
 
 

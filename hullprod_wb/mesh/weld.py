@@ -15,7 +15,7 @@ group; should that or the number of rounds fail, the rows are grouped by numpy's
 """
 import numpy as np
 
-from ..core.threads import default_threads, run_blocks
+from ..core.threads import blocks, default_threads, run_blocks
 
 #: Rounds of the hash table before the exact sort takes over.
 MAX_ROUNDS = 64
@@ -58,7 +58,7 @@ def hash_slots(words, bits):
 
     def block(sl):
         slot[sl] = row_hashes([w[sl] for w in words]) >> shift
-    run_blocks(block, [slice(a, min(a + BLOCK, k)) for a in range(0, k, BLOCK)], default_threads())
+    run_blocks(block, blocks(k, BLOCK), default_threads())
     return slot
 
 
@@ -121,7 +121,7 @@ def _winners(table, slot, ids, words, first_round):
         for w in words:
             eq &= w[c] == (w[sl] if first_round else w[ids[sl]])
         cand[sl], same[sl] = c, eq
-    run_blocks(block, [slice(a, min(a + BLOCK, p)) for a in range(0, p, BLOCK)], default_threads())
+    run_blocks(block, blocks(p, BLOCK), default_threads())
     return cand, same, all(lowest)
 
 
