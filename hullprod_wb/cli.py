@@ -10,7 +10,7 @@ import time
 
 from .core.constants import DEFAULT_HF, DEFAULT_KF
 from .core.errors import InputError
-from .core.inputs import BREP_FORMATS, describe_file
+from .core.inputs import BREP_FORMATS, MESH_FORMATS, describe_file, start_sha256
 from .core.progress import StderrProgress, null_progress
 
 #: Modules that add further subcommands (each has add_parser(subparsers)); absent ones are skipped.
@@ -77,7 +77,8 @@ def early_reading(argv):
     the argument parser and the backend load here; None for anything else, as far as a
     plain scan of argv tells (short options, abbreviations, a second positional: None).
     run_analyze takes it over when the parsed arguments ask for the same reading, and
-    stops it otherwise."""
+    stops it otherwise. For a mesh file, the file's digest (inputs.start_sha256, which the
+    mesh path takes up) is begun here instead, for the same reason."""
     if not argv or argv[0] != "analyze":
         return None
     opts, positional = {}, []
@@ -95,7 +96,11 @@ def early_reading(argv):
     if len(positional) != 1 or "--help" in opts or opts.get("--backend") == "mesh":
         return None
     path = positional[0]
-    if os.path.splitext(path)[1].lower() not in BREP_FORMATS or not os.path.isfile(path):
+    ext = os.path.splitext(path)[1].lower()
+    if ext in MESH_FORMATS and os.path.isfile(path):
+        start_sha256(path)
+        return None
+    if ext not in BREP_FORMATS or not os.path.isfile(path):
         return None
     try:  # a file whose structure is broken never reaches a reader: describe_file says why
         describe_file(path)

@@ -331,3 +331,23 @@ def test_no_thread_is_left_once_the_work_is_done(tmp_path):
         t.join(5)
     assert not [t.name for t in alive if t.is_alive()]
     assert not [t.name for t in threading.enumerate() if t.name.startswith(("hullprod-sha256", "ThreadPool"))]
+
+
+def test_the_command_begins_a_mesh_files_digest_before_loading_the_backend(tmp_path):
+    """`analyze FILE` of a mesh file begins the file's digest at once (cli.early_reading),
+    and the mesh path takes that digest up rather than hashing the file again."""
+    import hashlib
+    from hullprod_wb import cli
+    from hullprod_wb.core import inputs
+    V, F = torus_mesh(12)
+    p = str(tmp_path / "t.ply")
+    trimesh.Trimesh(V, F, process=False).export(p)
+    assert cli.early_reading(["analyze", p, "--lref", "3", "--json"]) is None
+    st = os.stat(p)
+    early = inputs._DIGESTS.get((os.path.abspath(p), st.st_size, st.st_mtime_ns))
+    assert early is not None
+    assert inputs.start_sha256(p) is early
+    assert early.result() == hashlib.sha256(open(p, "rb").read()).hexdigest()
+    for argv in (["analyze", str(tmp_path / "missing.stl")], ["example"]):
+        assert cli.early_reading(argv) is None
+    assert not any(k[0].endswith("missing.stl") for k in inputs._DIGESTS)
