@@ -100,6 +100,24 @@ def test_obj_layouts(tmp_path, text):
     assert np.array_equal(fast.vertices, slow.vertices) and np.array_equal(fast.faces, slow.faces)
 
 
+@pytest.mark.parametrize("text, simple", [
+    (b"v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3", True),        # CRLF, no last newline
+    (b"v\t0 0  0 \n\nv 1 0 0\nv 0 1 0\nf 3 1 2\n", True),
+    (b"v 0 0 0 1\nv 1 0 0\nv 0 1 0\nf 1 2\n", False),            # 5 + 4 + 4 + 3 tokens
+    (b"v 0 0\n0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", False),           # a value on a line of its own
+    (b" v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", False),            # a space before the keyword
+    (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 \n7\n", False),
+])
+def test_simple_obj_takes_exactly_four_tokens_a_line(text, simple):
+    """The block parser takes a file only when every keyword line holds exactly its keyword
+    and three values and no other line holds any (trimesh reads the others)."""
+    parsed = readers._simple_obj(text)
+    assert (parsed is not None) == simple
+    if simple:
+        V, F = parsed
+        assert V.shape == (3, 3) and F.shape == (1, 3) and sorted(F[0]) == [0, 1, 2]
+
+
 def test_big_endian_and_extra_properties_ply(tmp_path):
     V, F = MESHES["torus"]
     for encoding, props in (("binary_big_endian", ""), ("binary_little_endian", "property uchar red\n")):

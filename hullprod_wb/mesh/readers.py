@@ -153,6 +153,8 @@ def _binary_ply_layout(header):
 
 #: Bytes an OBJ of the simple layout may hold once its comment lines are dropped.
 _OBJ_BYTES = b" \t\r\n0123456789eE+-.vf"
+#: The keyword letters turned into spaces, which leaves the numbers.
+_KEYWORDS_TO_SPACE = bytes.maketrans(b"vf", b"  ")
 #: More comment lines than this: trimesh's reader.
 MAX_OBJ_COMMENTS = 10000
 
@@ -190,21 +192,23 @@ def _drop_comment_lines(data):
         end = len(data) if end < 0 else end
         cuts.append((pos, end))
         pos = data.find(b"#", end)
-    parts, last = [], 0
+    view, parts, last = memoryview(data), [], 0
     for a, b in cuts:
-        parts.append(data[last:a])
+        parts.append(view[last:a])
         last = b
-    parts.append(data[last:])
-    return b"".join(parts)
+    parts.append(view[last:])
+    return b"".join(parts)      # one copy: the parts are views
 
 
 def _simple_obj(data):
     """(vertices (k, 3) float64, faces (m, 3) int64, 0-based) of an OBJ made only of v, f,
     comment and blank lines with three values each, or None.
 
-    Every line must be blank or a one-letter keyword followed by exactly three tokens:
-    the tokens of a line are counted from the token starts (a non-space byte after a
-    space); the numbers of each block of lines of one kind are then parsed at once."""
+    Every line must be blank or a one-letter keyword followed by exactly three tokens.
+    A token starts at a non-space byte after a space; the starts, taken four at a time,
+    must begin at the keyword lines' starts and end before their ends (which leaves no
+    token for any other line). The numbers of each block of lines of one kind are then
+    parsed at once."""
     if b"#" in data:
         data = _drop_comment_lines(data)
         if data is None:
@@ -217,17 +221,21 @@ def _simple_obj(data):
     start[1:] &= space[:-1]
     line_start = np.concatenate([[0], np.flatnonzero(buf == ord("\n")) + 1])
     line_start = line_start[line_start < len(buf)]
-    ntok = np.add.reduceat(start, line_start, dtype=np.int32)
     head = buf[line_start]
     second = buf[np.minimum(line_start + 1, len(buf) - 1)]
     keyword = ((head == ord("v")) | (head == ord("f"))) & (second <= 32) & (line_start + 1 < len(buf))
-    if not np.all(np.where(keyword, ntok == 4, ntok == 0)):
-        return None
     lines = np.flatnonzero(keyword)
-    if len(lines) == 0:
+    tokens = np.flatnonzero(start)
+    del space, start
+    if len(lines) == 0 or len(tokens) != 4 * len(lines):
         return None
+    tokens = tokens.reshape(-1, 4)
+    line_end = np.append(line_start[1:], len(buf))[lines]
+    if not (np.array_equal(tokens[:, 0], line_start[lines]) and np.all(tokens[:, 3] < line_end)):
+        return None
+    del tokens, line_end
     is_face = head[lines] == ord("f")
-    text = data.replace(b"v", b" ").replace(b"f", b" ")
+    text = data.translate(_KEYWORDS_TO_SPACE)
     change = np.flatnonzero(is_face[1:] != is_face[:-1]) + 1
     bounds = np.concatenate([[0], change, [len(lines)]])
     vs, fs = [], []
