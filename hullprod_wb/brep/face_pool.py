@@ -47,14 +47,43 @@ def thread_count():
         return None
 
 
+def other_threads():
+    """Kernel ids of this process's threads but the calling one, or None where /proc does
+    not tell."""
+    try:
+        tids = {int(tid) for tid in os.listdir("/proc/self/task")}
+    except (OSError, ValueError):
+        return None
+    tids.discard(threading.get_native_id())
+    return tids
+
+
+#: Seconds fork_is_clean waits for the kernel to let go of threads Python has seen end (a
+#: joined thread returns from join a moment before its kernel thread has gone).
+SETTLE_SECONDS = 0.2
+#: Kernel threads that outlasted such a wait: not Python's (OpenCascade's, BLAS's, Qt's).
+_LASTING = set()
+
+
 def fork_is_clean():
     """True where a process forked from this one starts clean: Linux, the main thread, and
-    no other thread in the process (see module doc)."""
+    no other thread in the process (see module doc). Kernel threads of Python threads that
+    have ended are waited for (SETTLE_SECONDS at most); one still there after that is
+    another library's and counts."""
     if not sys.platform.startswith("linux") or not hasattr(os, "fork"):  # macOS: system
         return False                                                      # frameworks are not fork-safe
-    if threading.current_thread() is not threading.main_thread():
+    if threading.current_thread() is not threading.main_thread() or threading.active_count() > 1:
         return False
-    return thread_count() == 1
+    others = other_threads()
+    if others is None:
+        return False
+    import time
+    end = time.monotonic() + SETTLE_SECONDS
+    while others and not others & _LASTING and time.monotonic() < end:
+        time.sleep(0.0005)
+        others = other_threads()
+    _LASTING.update(others)
+    return not others
 
 
 def fork_is_safe():
