@@ -5,9 +5,9 @@ import subprocess
 from conftest import ROOT
 
 DEFAULTS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-            "MALLOC_MMAP_THRESHOLD_": "33554432", "MALLOC_TRIM_THRESHOLD_": "134217728",
+            "MALLOC_MMAP_THRESHOLD_": "33554432", "MALLOC_TRIM_THRESHOLD_": "1099511627776",
             "MALLOC_TOP_PAD_": "67108864", "MALLOC_ARENA_MAX": "1",
-            "MALLOC_MMAP_MAX_": "0"}
+            "MALLOC_MMAP_MAX_": "0", "NUMPY_MADVISE_HUGEPAGE": "0"}
 
 
 def _launcher_env(**given):

@@ -25,10 +25,10 @@ from ..core.progress import Cancelled
 #: that sees FreeCAD's modules; the command line uses it too).
 DEFAULT_PYTHON = "/usr/bin/python3"
 #: Environment of the command line (./hullprod): one BLAS thread, glibc keeps freed heap (large
-#: arrays' too) in one arena for all threads.
+#: arrays' too) in one arena for all threads, numpy's arrays on ordinary pages.
 CLI_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MALLOC_MMAP_THRESHOLD_": "33554432",
-           "MALLOC_TRIM_THRESHOLD_": "134217728", "MALLOC_TOP_PAD_": "67108864", "MALLOC_ARENA_MAX": "1",
-           "MALLOC_MMAP_MAX_": "0"}
+           "MALLOC_TRIM_THRESHOLD_": "1099511627776", "MALLOC_TOP_PAD_": "67108864", "MALLOC_ARENA_MAX": "1",
+           "MALLOC_MMAP_MAX_": "0", "NUMPY_MADVISE_HUGEPAGE": "0"}
 PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
