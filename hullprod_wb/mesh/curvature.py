@@ -158,7 +158,7 @@ def frame_u(normals, out):
 
 
 #: Faces per block of the vectorised passes: the temporaries of one block stay in cache.
-BLOCK = 1 << 15
+BLOCK = 1 << 16
 
 
 def _take(rows, index):

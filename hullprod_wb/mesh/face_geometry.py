@@ -18,7 +18,7 @@ from ..core.threads import blocks, default_threads, run_blocks
 from .curvature import DEGENERATE_RTOL
 
 #: Faces per block.
-BLOCK = 1 << 15
+BLOCK = 1 << 16
 
 
 def _each_block(fn, m):

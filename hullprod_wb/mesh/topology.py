@@ -20,7 +20,7 @@ import numpy as np
 from ..core.threads import blocks, default_threads, run_blocks
 
 #: Faces per block of the side pass.
-BLOCK = 1 << 15
+BLOCK = 1 << 16
 
 
 def _index_dtype(limit):
