@@ -153,10 +153,12 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
     timings["quality_s"] = mesh.quality_seconds
     flags = mesh.table.vertex_flags(len(V))
     face_area = mesh.measures.area  # for the reference length
+    rows = mesh.rows                # the coordinate rows of the block passes
     del mesh              # the edge table and the other triangle measures: not needed any more
 
     progress(0.4, "curvature of %d vertices" % len(V))
-    curv = vertex_curvature(V, F, flags=flags)
+    curv = vertex_curvature(V, F, flags=flags, rows=rows)
+    del rows
     t3 = time.perf_counter()
     timings["curvature_s"] = t3 - t1
 

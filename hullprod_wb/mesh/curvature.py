@@ -311,18 +311,20 @@ def _tensor_block(Vt, fc, frames, acc, sl):
         acc[3, j, sl] = w
 
 
-def vertex_curvature(vertices, faces, threads=None, flags=None):
+def vertex_curvature(vertices, faces, threads=None, flags=None, rows=None):
     """Rusinkiewicz (2004) curvature at every vertex (see module docstring).
 
     vertices: (n, 3) float; faces: (m, 3) int, oriented. Degenerate faces (see
     DEGENERATE_RTOL) are ignored. threads: worker threads for the block passes (default
     :func:`default_threads`). flags: (boundary, nonmanifold) (n,) bool vertex flags when
-    known already (topology.EdgeTable.vertex_flags), else found here. Returns a MeshCurvature.
+    known already (topology.EdgeTable.vertex_flags), else found here. rows: the (3, n)
+    contiguous coordinate rows of the vertices when at hand
+    (face_geometry.coordinate_rows). Returns a MeshCurvature.
     """
     V, F = check_arrays(vertices, faces)
     n, m = len(V), len(F)
     threads = default_threads() if threads is None else max(1, int(threads))
-    Vt = np.ascontiguousarray(V.T)
+    Vt = np.ascontiguousarray(V.T) if rows is None else rows
     fc = [np.ascontiguousarray(F[:, j]) for j in range(3)]
     face_blocks = blocks(m, BLOCK)
 

@@ -27,6 +27,13 @@ def _each_block(fn, m):
     run_blocks(fn, blocks(m, BLOCK), default_threads())
 
 
+def coordinate_rows(V):
+    """(3, n) contiguous float64 coordinate rows of the vertices V (n, 3): the layout every
+    block pass reads. The loading makes them once per mesh (PreparedMesh.rows) and hands
+    them on as rows= to the passes, which otherwise make their own."""
+    return np.ascontiguousarray(np.asarray(V, dtype=float).T)
+
+
 def _corners(Vt, F, sl):
     return [np.take(Vt, F[sl, j], axis=1) for j in range(3)]
 
@@ -68,10 +75,11 @@ class FaceMeasures:
             getattr(self, name)[index] = getattr(other, name)
 
 
-def face_measures(V, F):
-    """FaceMeasures of the faces F (m, 3) of the vertices V (n, 3)."""
+def face_measures(V, F, rows=None):
+    """FaceMeasures of the faces F (m, 3) of the vertices V (n, 3) (rows: their
+    coordinate_rows when at hand)."""
     m = len(F)
-    Vt = np.ascontiguousarray(np.asarray(V, dtype=float).T)
+    Vt = coordinate_rows(V) if rows is None else rows
     out = FaceMeasures(np.empty(m), np.empty(m), np.empty(m), np.empty(m), np.empty(m, dtype=bool))
     sqrt3x2 = 2.0 * np.sqrt(3.0)
 
@@ -100,10 +108,11 @@ def vertex_areas(F, area, n):
     return np.bincount(np.ravel(F), weights=np.repeat(area / 3.0, 3), minlength=n)
 
 
-def unit_normals(V, F):
-    """(3, m) unit normals (p1 - p0) x (p2 - p0) / |...| of the faces (NaN where zero)."""
+def unit_normals(V, F, rows=None):
+    """(3, m) unit normals (p1 - p0) x (p2 - p0) / |...| of the faces (NaN where zero);
+    rows: V's coordinate_rows when at hand."""
     m = len(F)
-    Vt = np.ascontiguousarray(np.asarray(V, dtype=float).T)
+    Vt = coordinate_rows(V) if rows is None else rows
     N = np.empty((3, m))
 
     def block(sl):
@@ -129,9 +138,10 @@ def normal_angles(N, pairs):
     return out
 
 
-def edge_lengths(V, edges):
-    """(e,) lengths |V[b] - V[a]| of the edges (e, 2), over blocks (no (e, 3) temporaries)."""
-    Vt = np.ascontiguousarray(np.asarray(V, dtype=float).T)
+def edge_lengths(V, edges, rows=None):
+    """(e,) lengths |V[b] - V[a]| of the edges (e, 2), over blocks (no (e, 3) temporaries);
+    rows: V's coordinate_rows when at hand."""
+    Vt = coordinate_rows(V) if rows is None else rows
     out = np.empty(len(edges))
 
     def block(sl):

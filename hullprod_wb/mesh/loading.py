@@ -34,7 +34,7 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.inputs import checked_path, sha256_file
 from .curvature import check_arrays, check_faces, check_finite
-from .face_geometry import face_measures
+from .face_geometry import coordinate_rows, face_measures
 from .quality import finished_record, measured_record
 from .readers import read_mesh_file
 from .topology import edge_table, face_neighbours, import_sparse_in_background
@@ -137,9 +137,9 @@ def _face_components(m, pairs):
     return labels, int(count)
 
 
-def _signed_volumes(V, F):
-    """(m,) p0 . (p1 x p2) / 6 of every face (the tetrahedron with the origin)."""
-    Vt = np.ascontiguousarray(V.T)
+def _signed_volumes(Vt, F):
+    """(m,) p0 . (p1 x p2) / 6 of every face (the tetrahedron with the origin); Vt: the
+    vertices' coordinate rows (3, n)."""
     out = np.empty(len(F))
     step = 1 << 15
     for a in range(0, len(F), step):
@@ -149,7 +149,7 @@ def _signed_volumes(V, F):
     return out
 
 
-def orient_faces(V, F, table):
+def orient_faces(V, F, table, rows=None):
     """Consistent winding across manifold edges; closed pieces turned outward.
 
     Each triangle f gets two nodes, f (kept) and f + m (flipped); an edge whose two
@@ -158,8 +158,9 @@ def orient_faces(V, F, table):
     different components; the component holding more kept nodes wins. (Where every edge
     agrees already, the components are the pieces of the face graph and nothing flips.)
     A piece with no boundary and no non-manifold edge is then flipped as a whole if its
-    signed volume sum(p0 . (p1 x p2))/6 is negative. Returns (faces, info dict, (m,) bool
-    reversed faces); the table is left as it is (EdgeTable.flip_faces updates it).
+    signed volume sum(p0 . (p1 x p2))/6 is negative. rows: V's coordinate_rows when at
+    hand. Returns (faces, info dict, (m,) bool reversed faces); the table is left as it is
+    (EdgeTable.flip_faces updates it).
     """
     m = len(F)
     pairs, same = table.pairs, table.same_direction(F)
@@ -171,9 +172,9 @@ def orient_faces(V, F, table):
         from scipy.sparse import coo_matrix
         from scipy.sparse.csgraph import connected_components
         a, b = pairs[:, 0], pairs[:, 1]
-        rows = np.concatenate([a, a + m])
-        cols = np.concatenate([np.where(same, b + m, b), np.where(same, b, b + m)])
-        graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(2 * m, 2 * m))
+        heads = np.concatenate([a, a + m])
+        tails = np.concatenate([np.where(same, b + m, b), np.where(same, b, b + m)])
+        graph = coo_matrix((np.ones(len(heads), dtype=np.int8), (heads, tails)), shape=(2 * m, 2 * m))
         _, label = connected_components(graph, directed=False)
         keep, alt = label[:m], label[m:]
         nkeep = np.bincount(keep, minlength=label.max() + 1)
@@ -193,7 +194,8 @@ def orient_faces(V, F, table):
     else:
         piece_open = np.bincount(piece, weights=open_face, minlength=npieces) > 0
     del open_face
-    piece_vol = np.bincount(piece, weights=_signed_volumes(V, out), minlength=npieces)
+    Vt = coordinate_rows(V) if rows is None else rows
+    piece_vol = np.bincount(piece, weights=_signed_volumes(Vt, out), minlength=npieces)
     invert_piece = ~piece_open & (piece_vol < 0)
     inv = invert_piece[piece]
     if inv.any():
@@ -237,7 +239,8 @@ class PreparedMesh:
     vertices (n, 3) float64; faces (m, 3) int64 (oriented); info: the preparation record;
     table: topology.EdgeTable of the faces; measures: face_geometry.FaceMeasures; quality:
     the quality record (quality.mesh_quality) when prepared with it, else None;
-    quality_seconds: the wall time its measurement took.
+    quality_seconds: the wall time its measurement took; rows: the vertices' (3, n)
+    coordinate rows (face_geometry.coordinate_rows) that the block passes read.
     """
 
     vertices: np.ndarray
@@ -247,6 +250,7 @@ class PreparedMesh:
     measures: object
     quality: dict = None
     quality_seconds: float = 0.0
+    rows: np.ndarray = None
 
     def to_trimesh(self):
         """trimesh.Trimesh of the prepared mesh with metadata['hullprod'] = info."""
@@ -280,7 +284,8 @@ def prepare(vertices, faces, source, progress=None, with_quality=False):
     progress(0.4, "triangle measures and edges of %d faces" % len(F))
     with ThreadPoolExecutor(max_workers=1) as pool:   # the edges beside the measures
         table = pool.submit(edge_table, F, len(V))
-        measures = face_measures(V, F)
+        rows = coordinate_rows(V)                     # for every block pass from here on
+        measures = face_measures(V, F, rows)
         table = table.result()
     bad = measures.degenerate
     info["degenerate_faces_removed"] = int(np.count_nonzero(bad))
@@ -297,6 +302,7 @@ def prepare(vertices, faces, source, progress=None, with_quality=False):
     if not used.all():
         remap = np.cumsum(used) - 1
         V, F = V[used], remap[F]
+        rows = coordinate_rows(V)
         if table is not None:   # the same edges in the same order, on the vertices kept
             table.edges = remap[table.edges].astype(table.edges.dtype)
     del used
@@ -313,15 +319,16 @@ def prepare(vertices, faces, source, progress=None, with_quality=False):
     measured, seconds = None, 0.0
     with ThreadPoolExecutor(max_workers=1) as pool:  # a thread only if a record is measured
         # the quality record measured beside the orientation: it stands if no face turns
-        side = pool.submit(_timed, measured_record, V, F, table, measures) if with_quality else None
+        side = (pool.submit(_timed, measured_record, V, F, table, measures, rows)
+                if with_quality else None)
         info["duplicate_faces"] = duplicate_face_count(F, table)
-        F, orient, reversed_faces = orient_faces(V, F, table)
+        F, orient, reversed_faces = orient_faces(V, F, table, rows)
         if side is not None:
             measured, seconds = side.result()
     if reversed_faces.any():
         table.flip_faces(reversed_faces)
         # the measures of the reversed faces as their new winding gives them
-        measures.put(reversed_faces, face_measures(V, F[reversed_faces]))
+        measures.put(reversed_faces, face_measures(V, F[reversed_faces], rows))
         measured = None
     info.update(orient)
     info["vertices"] = int(len(V))
@@ -329,9 +336,9 @@ def prepare(vertices, faces, source, progress=None, with_quality=False):
     quality = None
     if with_quality:
         if measured is None:
-            measured, seconds = _timed(measured_record, V, F, table, measures)
+            measured, seconds = _timed(measured_record, V, F, table, measures, rows)
         quality = finished_record(measured, info, table)
-    return PreparedMesh(V, F, info, table, measures, quality, seconds)
+    return PreparedMesh(V, F, info, table, measures, quality, seconds, rows)
 
 
 def _timed(fn, *args):

@@ -33,7 +33,8 @@ import numpy as np
 
 from ..core.threads import default_threads
 from .curvature import check_arrays
-from .face_geometry import edge_lengths, face_measures, normal_angles, unit_normals, vertex_areas
+from .face_geometry import coordinate_rows, edge_lengths, face_measures, normal_angles, unit_normals, \
+    vertex_areas
 from .topology import edge_table
 
 #: Percentiles of every distribution summary.
@@ -130,10 +131,11 @@ def mesh_quality(mesh):
     return finished_record(measured_record(V, F, table, fm), prep, table)
 
 
-def measured_record(V, F, table, fm):
+def measured_record(V, F, table, fm, rows=None):
     """The part of the quality record measured on the triangles (V, F) with their EdgeTable
-    and FaceMeasures: everything but the connected components, what the preparation
-    reports and the advisory (finished_record adds them)."""
+    and FaceMeasures (rows: V's coordinate_rows when at hand): everything but the connected
+    components, what the preparation reports and the advisory (finished_record adds them)."""
+    rows = coordinate_rows(V) if rows is None else rows
     n, m = len(V), len(F)
     ne = len(table.count)
     area, q, amin, amax = fm.area, fm.quality, fm.min_angle, fm.max_angle
@@ -142,11 +144,11 @@ def measured_record(V, F, table, fm):
     be = table.edges[table.count == 1]
     bnd, nmv = table.vertex_flags(n)
     n_nme = int(np.count_nonzero(table.count > 2))
-    lengths = edge_lengths(V, table.edges)
+    lengths = edge_lengths(V, table.edges, rows)
     valence = np.bincount(table.edges.ravel(), minlength=n)
     interior = ~bnd & ~nmv & (valence > 0)
     irregular = interior & ((valence < 4) | (valence > 8))
-    nvar = normal_angles(unit_normals(V, F), table.pairs)
+    nvar = normal_angles(unit_normals(V, F, rows), table.pairs)
     same = table.same_direction(F)
     interior_edges = int(len(nvar))
     sharp = int(np.count_nonzero(nvar > SHARP_EDGE_DEG))
