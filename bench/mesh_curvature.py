@@ -7,7 +7,9 @@
 
 For every file: the median wall time of --repeat runs with the smallest and largest (the
 noise of a shared machine), the median of each phase of the JSON `timings` (load, quality,
-curvature, signature; the quality record is measured on a second thread inside the load) and the peak resident memory of the command (its own rusage). With
+curvature, signature; the quality record is measured on a second thread inside the load),
+the median user and system CPU seconds and the peak resident memory of the command (its
+own rusage; the system time is mostly the kernel's zeroing of fresh pages). With
 several sizes, the ratio of the median times 4M / 1M of each format, measured in this
 same run (linear cost: 4x the vertices, about 4x the time). With --reference, the paper's
 reference package (hullprod 1.0.1 from PyPI, in a throwaway virtual environment, a fresh
@@ -61,8 +63,9 @@ def _write(folder, size, formats):
 
 
 def timed_child(cmd, env=None):
-    """(stdout, stderr, exit status, wall seconds, peak resident MB) of one command; the
-    memory is the child's own (os.wait4), not the largest child's so far."""
+    """(stdout, stderr, exit status, wall seconds, peak resident MB, (user, system) CPU
+    seconds) of one command; memory and CPU are the child's own (os.wait4), not the largest
+    child's so far."""
     t = time.perf_counter()
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env)
     out, err = p.stdout.read(), p.stderr.read()
@@ -71,17 +74,19 @@ def timed_child(cmd, env=None):
     p.stdout.close()
     p.stderr.close()
     p.returncode = os.waitstatus_to_exitcode(status)
-    return out, err.decode(errors="replace"), p.returncode, wall, usage.ru_maxrss / 1024.0
+    return (out, err.decode(errors="replace"), p.returncode, wall, usage.ru_maxrss / 1024.0,
+            (usage.ru_utime, usage.ru_stime))
 
 
 def run_ours(path):
-    """One run of our command: dict(wall, rss, timings, I_D) or dict(wall, error)."""
+    """One run of our command: dict(wall, rss, user, sys, timings, I_D) or dict(wall, error)."""
     cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet", "--lref", str(LREF)]
-    out, err, code, wall, rss = timed_child(cmd)
+    out, err, code, wall, rss, (user, system) = timed_child(cmd)
     if code != 0:
         return {"wall": wall, "error": err.strip()[-300:]}
     doc = json.loads(out)
-    return {"wall": wall, "rss": rss, "timings": doc["timings"], "I_D": doc["signature"]["I_D"]}
+    return {"wall": wall, "rss": rss, "user": user, "sys": system, "timings": doc["timings"],
+            "I_D": doc["signature"]["I_D"]}
 
 
 def run_reference(exe, path):
@@ -89,7 +94,7 @@ def run_reference(exe, path):
     out = tempfile.mkdtemp(prefix="hullprod-ref-")
     cache = tempfile.mkdtemp(prefix="hullprod-ref-cache-")
     cmd = [exe, path, "--out", out, "--overwrite", "--no-plots", "--quiet", "--lref", str(LREF)]
-    _, err, code, wall, rss = timed_child(cmd, env=dict(os.environ, HULLPROD_CACHE_DIR=cache))
+    _, err, code, wall, rss, _ = timed_child(cmd, env=dict(os.environ, HULLPROD_CACHE_DIR=cache))
     shutil.rmtree(cache, ignore_errors=True)
     shutil.rmtree(out, ignore_errors=True)
     res = {"wall": wall, "rss": rss}
@@ -104,6 +109,8 @@ def summarise(runs):
            "rss": max(r["rss"] for r in runs)}
     for ph in PHASES:
         row[ph] = statistics.median(r["timings"][ph] for r in runs)
+    for cpu in ("user", "sys"):
+        row[cpu] = statistics.median(r[cpu] for r in runs)
     row["I_D"] = runs[0]["I_D"]
     return row
 
@@ -129,8 +136,9 @@ def main(argv=None):
     os.makedirs(folder, exist_ok=True)
     print("cores: %d, load average at start: %.2f (wall times grow when other processes share the cores)"
           % (os.cpu_count() or 1, os.getloadavg()[0]))
-    print("%-18s %9s %8s %8s %20s %7s %7s %7s %7s %8s" % (
-        "file", "vertices", "faces", "median", "min..max [s]", "load", "quality", "curv.", "sign.", "peak MB"))
+    print("%-18s %9s %8s %8s %20s %7s %7s %7s %7s %7s %7s %8s" % (
+        "file", "vertices", "faces", "median", "min..max [s]", "load", "quality", "curv.", "sign.", "user",
+        "system", "peak MB"))
     results = {}
     try:
         for size in sizes:
@@ -149,9 +157,10 @@ def main(argv=None):
                     continue
                 row = summarise(runs)
                 results[(size, fmt)] = row
-                print("%-18s %9d %8d %8.2f %9.2f .. %7.2f %7.2f %7.2f %7.2f %7.2f %8.0f" % (
+                print("%-18s %9d %8d %8.2f %9.2f .. %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %7.2f %8.0f" % (
                     os.path.basename(paths[fmt]), nv, nf, row["median"], row["min"], row["max"],
-                    row["load_s"], row["quality_s"], row["curvature_s"], row["signature_s"], row["rss"]))
+                    row["load_s"], row["quality_s"], row["curvature_s"], row["signature_s"], row["user"],
+                    row["sys"], row["rss"]))
                 if ref is not None:
                     if "error" in ref:
                         print("%-18s reference hullprod 1.0.1: error %s" % ("", ref["error"]))
