@@ -182,6 +182,11 @@ def test_preparation_against_the_reference(name):
     assert np.array_equal(nv, ref.normal_angles(pm.vertices, pm.faces, pairs2))
     # the quality record from the shared topology is the one recomputed from scratch
     assert mesh_quality(pm) == mesh_quality(pm.to_trimesh())
+    # and so is the one measured during the preparation, on the coordinate rows it hands on
+    # (to the curvature too): those of the vertices kept
+    pq = loading.prepare(V, F, {"kind": "arrays"}, with_quality=True)
+    assert np.array_equal(pq.rows, pm.vertices.T) and pq.rows.flags.c_contiguous
+    assert pq.quality == mesh_quality(pm.to_trimesh())
 
 
 def test_distribution_summary_is_the_percentile_of_the_values():
