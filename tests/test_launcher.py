@@ -29,6 +29,11 @@ def test_launcher_sets_thread_and_heap_defaults():
         assert env.get(key) == value, key
 
 
+def test_the_guis_assessment_process_runs_with_the_launchers_environment():
+    from hullprod_wb.app.assessment_process import CLI_ENV
+    assert CLI_ENV == DEFAULTS
+
+
 def test_launcher_keeps_the_callers_values():
     env = _launcher_env(MALLOC_TOP_PAD_="4096", OPENBLAS_NUM_THREADS="2")
     assert env["MALLOC_TOP_PAD_"] == "4096"
