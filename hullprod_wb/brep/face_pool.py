@@ -170,7 +170,6 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
     from concurrent.futures.process import BrokenProcessPool
     order = sorted(range(n), key=lambda i: -(cost[i] if cost is not None else 0.0))
     _WORK = work
-    threads = thread_count()
     try:
         with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("fork")) as pool:
             pending = {pool.submit(_run_one, i): i for i in order}
@@ -197,18 +196,7 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
                 raise
     finally:
         _WORK = None
-        _wait_for_threads(threads)
     return results
-
-
-def _wait_for_threads(count, timeout=2.0):
-    """Wait (up to timeout seconds) until this process has no more than count threads: a
-    process pool's own threads end a moment after it has shut down, and until they have,
-    nothing may be forked here."""
-    import time
-    end = time.monotonic() + timeout
-    while count is not None and (thread_count() or 0) > count and time.monotonic() < end:
-        time.sleep(0.001)
 
 
 def reap(pid):
