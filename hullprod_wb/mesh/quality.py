@@ -103,10 +103,10 @@ def _components(n, edges):
 
 
 def _parts(mesh):
-    """(V, F, preparation record, EdgeTable, FaceMeasures) of a PreparedMesh (its own table
-    and measures), trimesh.Trimesh or (V, F)."""
+    """(V, F, preparation record, EdgeTable, FaceMeasures, coordinate rows) of a
+    PreparedMesh (its own table, measures and rows), trimesh.Trimesh or (V, F)."""
     if hasattr(mesh, "table") and hasattr(mesh, "measures"):   # loading.PreparedMesh
-        return mesh.vertices, mesh.faces, mesh.info, mesh.table, mesh.measures
+        return mesh.vertices, mesh.faces, mesh.info, mesh.table, mesh.measures, mesh.rows
     if isinstance(mesh, tuple):
         V, F = check_arrays(*mesh)
         prep = {}
@@ -114,7 +114,8 @@ def _parts(mesh):
         V, F = check_arrays(np.asarray(mesh.vertices), np.asarray(mesh.faces))
         meta = getattr(mesh, "metadata", None) or {}
         prep = meta.get("hullprod", {})
-    return V, F, prep, edge_table(F, len(V)), face_measures(V, F)
+    rows = coordinate_rows(V)
+    return V, F, prep, edge_table(F, len(V)), face_measures(V, F, rows), rows
 
 
 def mesh_quality(mesh):
@@ -127,8 +128,8 @@ def mesh_quality(mesh):
     """
     if getattr(mesh, "quality", None) is not None:
         return mesh.quality
-    V, F, prep, table, fm = _parts(mesh)
-    return finished_record(measured_record(V, F, table, fm), prep, table)
+    V, F, prep, table, fm, rows = _parts(mesh)
+    return finished_record(measured_record(V, F, table, fm, rows), prep, table)
 
 
 def measured_record(V, F, table, fm, rows=None):
