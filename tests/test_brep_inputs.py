@@ -118,7 +118,7 @@ def test_automatic_lref_independent_of_fields_and_cached_tessellations():
     source shape already carries (e.g. from the 3D view: the assessment works on a copy);
     a torus (span 2 (R + r) = 8 along its principal axes) gives 8 to the tessellation's
     accuracy."""
-    from brep_shapes import torus_shape
+    from hullprod_wb.examples.analytic_shapes import torus_shape
     from hullprod_wb.brep.backend import assess_brep
     a = assess_brep(torus_shape(), with_fields=False, cross_checks=False, audit=False)
     b = assess_brep(torus_shape(), with_fields=True, cross_checks=False, audit=False,

@@ -19,7 +19,7 @@ forks = pytest.mark.clean_process
 @needs_fork
 @forks
 def test_parallel_faces_give_the_values_of_the_sequential_run():
-    from brep_shapes import hemisphere_with_disc, sphere_cap
+    from hullprod_wb.examples.analytic_shapes import hemisphere_with_disc, sphere_cap
     from hullprod_wb import assess
     from hullprod_wb.freecad_env import import_freecad
     import_freecad()
@@ -227,7 +227,7 @@ def test_a_face_assessed_alone_is_integrated_in_patch_groups():
 @needs_fork
 @forks
 def test_lref_tessellation_in_a_child_is_the_one_made_here():
-    from brep_shapes import hemisphere_with_disc
+    from hullprod_wb.examples.analytic_shapes import hemisphere_with_disc
     from hullprod_wb.brep.lref_samples import LrefTessellation, tessellate_faces
     faces = list(hemisphere_with_disc().Faces)
     # the children first: once this process has meshed, it forks no more
@@ -252,7 +252,7 @@ def test_lref_tessellation_in_a_child_is_the_one_made_here():
 
 @needs_freecad
 def test_a_file_read_ahead_gives_the_values_of_its_shape(tmp_path):
-    from brep_shapes import sphere_cap
+    from hullprod_wb.examples.analytic_shapes import sphere_cap
     from hullprod_wb import assess
     from hullprod_wb.brep.lref_samples import read_and_start
     path = str(tmp_path / "cap.brep")

@@ -13,9 +13,9 @@ pytestmark = needs_freecad
 
 @pytest.fixture(scope="module")
 def shapes():
-    import brep_shapes
+    from hullprod_wb.examples import analytic_shapes
     from hullprod_wb.examples.builtin import half_wigley_shape
-    return {"saddle": brep_shapes.saddle_face(), "torus": brep_shapes.torus_shape(),
+    return {"saddle": analytic_shapes.saddle_face(), "torus": analytic_shapes.torus_shape(),
             "half-wigley": half_wigley_shape()}
 
 
@@ -436,13 +436,13 @@ def test_sameface_shared_hulls_no_null_without_reason(hull, levels):
 def test_sameface_diagnosis_names_knot_lines_and_aspect():
     """Wigley (WaveBEM, two C1 knot lines): the diagnosis finds the error at the knot lines;
     a saddle stretched 30 : 1 has its panels' aspect measured and named."""
-    import brep_shapes
+    from hullprod_wb.examples import analytic_shapes
     from hullprod_wb.studies import sameface_study
     doc = sameface_study(shared_hull("brep/wigley_half_wavebem.iges"), levels=(12, 48))
     assert "knot lines" in doc["faces"][0]["diagnosis"]["causes"]
     assert doc["faces"][0]["diagnosis"]["evidence"]["c1_lines"] == 2
     import FreeCAD
-    shape = brep_shapes.saddle_face()
+    shape = analytic_shapes.saddle_face()
     m = FreeCAD.Matrix()
     m.scale(30.0, 1.0, 1.0)
     stretched = shape.transformGeometry(m)

@@ -94,13 +94,13 @@ def summary_row(label, nfaces, doc, seconds):
 
 
 def controls():
-    import brep_shapes
+    from hullprod_wb.examples import analytic_shapes
     from hullprod_wb.examples.builtin import half_wigley_shape
     from hullprod_wb.studies import sameface_study
     from test_studies import creased_face
     rows = ["| control (48 x 48, c / a) | eps_H [%] | eps_K [%] | ratio 48/12 H | ratio 48/12 K |",
             "|---|---|---|---|---|"]
-    for label, shape in (("saddle (Bezier)", brep_shapes.saddle_face()), ("torus face", brep_shapes.torus_shape()),
+    for label, shape in (("saddle (Bezier)", analytic_shapes.saddle_face()), ("torus face", analytic_shapes.torus_shape()),
                          ("half-Wigley (Bezier)", half_wigley_shape()),
                          ("creased cubic B-spline (crease on a grid line)", creased_face())):
         f = sameface_study(shape)["faces"][0]

@@ -1,9 +1,10 @@
-"""Exact BRep controls built in code (paper section 5.1, Table tab:brepanalytic)."""
+"""Exact BRep controls built in code (paper section 5.1, Table tab:brepanalytic): Part shapes
+with closed-form signatures, for the tests and the installed self-test."""
 import math
 
 import numpy as np
 
-from hullprod_wb.freecad_env import import_freecad
+from ..freecad_env import import_freecad
 
 FreeCAD = import_freecad()
 import Part  # noqa: E402
