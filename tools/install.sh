@@ -27,11 +27,27 @@ if ! $PY -c "import trimesh" 2>/dev/null; then
   sudo_ $PY -m pip install -q --break-system-packages --no-deps "$TRIMESH_SPEC"
 fi
 
-# Make the workbench visible to FreeCAD 0.20 (~/.FreeCAD/Mod) and 0.21+ (~/.local/share/FreeCAD/Mod).
-for mod in "$HOME/.FreeCAD/Mod" "${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD/Mod"; do
+# Link the workbench into the user Mod folder of every installed FreeCAD, as each one
+# reports it (FreeCAD.getUserAppDataDir(): FreeCAD 1.1 gives a fresh user v1-1/), and into
+# the older unversioned folders that already exist. A folder FreeCAD did not name is not
+# created: its presence would change where FreeCAD 1.1 keeps the user's data.
+mods=""
+for cmd in freecadcmd FreeCADCmd freecadcmd-daily; do
+  command -v "$cmd" >/dev/null || continue
+  dir=$(cd "${TMPDIR:-/tmp}" && timeout 120 "$cmd" -c "import FreeCAD; print('HULLPROD_USERDIR=' + FreeCAD.getUserAppDataDir())" 2>/dev/null \
+        | sed -n 's/^HULLPROD_USERDIR=//p' | tail -1)
+  [ -n "$dir" ] && mods="$mods${dir%/}/Mod"$'\n'
+done
+[ -n "$mods" ] || mods="${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD/Mod"$'\n'
+for legacy in "$HOME/.FreeCAD" "${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD"; do
+  [ -d "$legacy" ] && mods="$mods$legacy/Mod"$'\n'
+done
+while IFS= read -r mod; do
+  [ -n "$mod" ] || continue
   mkdir -p "$mod"
   ln -sfn "$here" "$mod/HullProd"
-done
+  echo "hullprod install: linked $mod/HullProd" >&2
+done <<< "$(printf '%s' "$mods" | sort -u)"
 # Byte-compile the package once, as pip does on install: commands then read the cached
 # .pyc files instead of compiling every module (also where PYTHONDONTWRITEBYTECODE is set).
 $PY -m compileall -q "$here/hullprod_wb"
