@@ -9,44 +9,21 @@ from conftest import needs_freecad
 
 pytestmark = needs_freecad
 
-from brep_shapes import (SADDLE_I_D, TORUS_I_D, TORUS_LREF, hemisphere_with_disc,  # noqa: E402
-                         open_cylinder_face, plane_face, saddle_face, sphere_cap, torus_fractions,
-                         torus_shape, unit_sphere)
-from hullprod_wb import assess  # noqa: E402
+from hullprod_wb.examples.analytic_shapes import (SADDLE_I_D, hemisphere_with_disc,  # noqa: E402
+                                                  open_cylinder_face, plane_face, saddle_face, sphere_cap)
+from hullprod_wb import assess, selftest  # noqa: E402
 from hullprod_wb.examples.builtin import WIGLEY_REFERENCE, half_wigley_shape  # noqa: E402
-
-#: Accuracy goals: I_D to 1e-9 relative; class fractions to 1e-6 absolute.
-RTOL_ID = 1e-9
-ATOL_CLASS = 1e-6
-
-
-def fractions(r):
-    a = r.signature["a_C"]
-    return np.array([a["flat"], a["single"], a["elliptic"], a["saddle"]])
-
-
-def statuses(r):
-    return {m: v.status.value for m, v in r.validity.items()}
+# Accuracy goals: I_D to 1e-9 relative; class fractions to 1e-6 absolute.
+from hullprod_wb.selftest import ATOL_CLASS, RTOL_ID, fractions, statuses  # noqa: E402
 
 
 def test_plane():
-    r = assess(plane_face(), lref=3.0)
-    assert r.signature["I_D"] == 0.0 and r.signature["I_D_plus"] == 0.0 and r.signature["I_D_minus"] == 0.0
-    np.testing.assert_allclose(fractions(r), [1, 0, 0, 0], atol=ATOL_CLASS)
-    assert set(statuses(r).values()) == {"VALID"}
-    assert r.integrals.represented_area == pytest.approx(6.0, rel=1e-12)
+    selftest.check_plane()
 
 
 def test_unit_sphere_with_degenerate_poles():
-    r = assess(unit_sphere(), lref=2.0)
-    assert r.signature["I_D"] == pytest.approx(4.0, rel=RTOL_ID)
-    assert r.signature["I_D_plus"] == pytest.approx(4.0, rel=RTOL_ID)
-    assert r.signature["I_D_minus"] == 0.0
-    np.testing.assert_allclose(fractions(r), [0, 0, 1, 0], atol=ATOL_CLASS)
-    assert r.integrals.represented_area == pytest.approx(4 * math.pi, rel=1e-10)
     # The poles are a parameterisation degeneracy, not a singular surface: value established.
-    assert r.validity["I_D"].established
-    assert r.provenance["degenerate_points"], "sphere poles must be detected and reported"
+    selftest.check_unit_sphere()
 
 
 def test_open_cylinder():
@@ -99,20 +76,11 @@ def test_saddle_closed_form():
     # 4e-13). Both are asserted.
     r = assess(saddle_face(), lref=2.0)
     assert r.signature["I_D"] == pytest.approx(SADDLE_I_D, rel=1e-8)
-    r = assess(saddle_face(), lref=2.0, rtol=1e-6)
-    assert r.signature["I_D"] == pytest.approx(SADDLE_I_D, rel=RTOL_ID)
-    assert r.signature["I_D_minus"] == pytest.approx(SADDLE_I_D, rel=RTOL_ID)
-    assert r.signature["I_D_plus"] == 0.0
-    np.testing.assert_allclose(fractions(r), [0, 0, 0, 1], atol=ATOL_CLASS)
+    selftest.check_saddle()
 
 
 def test_torus_values_and_class_fractions():
-    r = assess(torus_shape(), lref=TORUS_LREF)
-    assert r.signature["I_D"] == pytest.approx(TORUS_I_D, rel=RTOL_ID)
-    assert r.signature["I_D_plus"] == pytest.approx(TORUS_I_D / 2, rel=RTOL_ID)
-    assert r.signature["I_D_minus"] == pytest.approx(TORUS_I_D / 2, rel=RTOL_ID)
-    np.testing.assert_allclose(fractions(r), torus_fractions(), atol=ATOL_CLASS)
-    assert set(statuses(r).values()) == {"VALID"}
+    selftest.check_torus()
 
 
 #: Independent semi-analytical half-Wigley reference: nested scipy quad of the graph
