@@ -351,3 +351,31 @@ def test_the_command_begins_a_mesh_files_digest_before_loading_the_backend(tmp_p
     for argv in (["analyze", str(tmp_path / "missing.stl")], ["example"]):
         assert cli.early_reading(argv) is None
     assert not any(k[0].endswith("missing.stl") for k in inputs._DIGESTS)
+
+
+def test_an_error_trimesh_catches_and_logs_refuses_the_file(tmp_path, monkeypatch):
+    """A parse error trimesh's reader catches itself and logs with its traceback (numpy 2.4's
+    fromstring on damaged facet normals) is a damaged file: InputError naming the file, the
+    reader's message and the exception; nothing is printed."""
+    import logging
+
+    import trimesh.exchange.stl as stl
+    from hullprod_wb.mesh.readers import read_stl
+
+    def load_stl(fh):
+        try:
+            raise ValueError("string or file could not be read to its end due to unmatched data")
+        except ValueError:
+            logging.getLogger("trimesh").warning("failed to extract face_normals", exc_info=True)
+        return {"vertices": np.zeros((3, 3)), "faces": np.array([[0, 1, 2]])}
+
+    monkeypatch.setattr(stl, "load_stl", load_stl)
+    logger = logging.getLogger("trimesh")
+    before = (logger.propagate, list(logger.handlers))
+    path = tmp_path / "damaged.stl"
+    path.write_text("solid x\nfacet normal 0 0 @\nendsolid x\n")
+    with pytest.raises(InputError) as err:
+        read_stl(str(path))
+    message = str(err.value)
+    assert str(path) in message and "failed to extract face_normals" in message and "ValueError" in message
+    assert (logger.propagate, logger.handlers) == before  # trimesh's logging as it was

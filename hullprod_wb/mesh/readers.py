@@ -9,6 +9,7 @@ scene or cache work. :func:`header_counts` gives the vertex and face counts a fi
 (from its header, or estimated from its size for OBJ) before anything is read, for the
 memory estimate of :mod:`.memory`.
 """
+import logging
 import os
 from dataclasses import dataclass
 
@@ -257,27 +258,85 @@ def _simple_obj(data):
     return V, F
 
 
-def _trimesh_reader(path, fmt):
-    """The file through trimesh's reader of fmt (no processing, no scene): RawMesh."""
+#: What a reader that needs trimesh says where it is not installed (one line, how to install).
+TRIMESH_MISSING = ("reading %s files needs the Python package trimesh, which is not installed: install it "
+                   "into FreeCAD's Python and restart FreeCAD (on Debian: /usr/bin/python3 -m pip install "
+                   "--break-system-packages --no-deps 'trimesh>=4.4,<5'); binary STL and binary PLY "
+                   "files of triangles are read without it")
+
+
+def _trimesh():
+    """The trimesh package, or None where it is not installed."""
     try:
         import trimesh
-    except ImportError as exc:  # pragma: no cover - trimesh is a declared dependency
-        raise InputError("reading mesh files needs the Python package trimesh (%s)" % exc) from None
+    except ImportError:
+        return None
+    return trimesh
+
+
+class _ReaderLog(logging.Handler):
+    """The records trimesh's loggers emit during one read. trimesh catches some parse errors
+    itself and logs them with their traceback; such a record means the file holds data the
+    reader could not parse."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.records = []
+
+    def emit(self, record):
+        self.records.append(record)
+
+    def __enter__(self):
+        self.logger = logging.getLogger("trimesh")
+        self.logger.addHandler(self)
+        self.propagate, self.logger.propagate = self.logger.propagate, False
+        return self
+
+    def __exit__(self, *exc):
+        self.logger.removeHandler(self)
+        self.logger.propagate = self.propagate
+
+    def parse_error(self):
+        """'message (ExceptionType: text)' of the first record with an exception, or None."""
+        for r in self.records:
+            if r.exc_info and r.exc_info[1] is not None:
+                e = r.exc_info[1]
+                return "%s (%s: %s)" % (r.getMessage(), type(e).__name__, " ".join(str(e).split()))
+        return None
+
+    def passed_on(self):
+        """The other records, one line each, to this module's logger."""
+        for r in self.records:
+            if not r.exc_info:
+                logging.getLogger(__name__).warning("trimesh: %s", r.getMessage())
+
+
+def _trimesh_reader(path, fmt):
+    """The file through trimesh's reader of fmt (no processing, no scene): RawMesh. Any error of
+    the reader, raised or caught and logged by trimesh, is InputError (a damaged file)."""
+    trimesh = _trimesh()
+    if trimesh is None:
+        raise InputError(TRIMESH_MISSING % ("ASCII STL" if fmt == "stl" else "this kind of " + fmt.upper()))
     try:
-        if fmt == "stl":
-            from trimesh.exchange.stl import load_stl
-            with open(path, "rb") as fh:
-                kw = load_stl(fh)
-            vertices, faces = kw["vertices"], kw["faces"]
-        else:
-            loaded = trimesh.load(path, file_type=fmt, force="mesh", process=False)
-            if not isinstance(loaded, trimesh.Trimesh):
-                raise InputError("mesh file %s holds no triangle mesh" % path)
-            vertices, faces = loaded.vertices, loaded.faces
+        with _ReaderLog() as log:
+            if fmt == "stl":
+                from trimesh.exchange.stl import load_stl
+                with open(path, "rb") as fh:
+                    kw = load_stl(fh)
+                vertices, faces = kw["vertices"], kw["faces"]
+            else:
+                loaded = trimesh.load(path, file_type=fmt, force="mesh", process=False)
+                if not isinstance(loaded, trimesh.Trimesh):
+                    raise InputError("mesh file %s holds no triangle mesh" % path)
+                vertices, faces = loaded.vertices, loaded.faces
     except InputError:
         raise
     except Exception as exc:  # the readers raise many kinds of errors for unreadable files
         raise InputError("cannot read mesh file %s as %s: %s" % (path, fmt.upper(), exc)) from None
+    error = log.parse_error()
+    if error is not None:
+        raise InputError("cannot read mesh file %s as %s: %s" % (path, fmt.upper(), error))
+    log.passed_on()
     return RawMesh(np.asarray(vertices), np.asarray(faces))
 
 
