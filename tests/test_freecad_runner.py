@@ -70,15 +70,17 @@ def test_freecad_runs_the_self_test(installed):
     assert count >= 10 and seconds < 60, (count, seconds)
 
 
-def test_a_failing_check_fails_the_run(installed, tmp_path):
-    """A self-test whose sphere is not the unit sphere fails, and the runner exits non-zero."""
+def test_a_failing_check_fails_the_run(installed):
+    """A self-test whose sphere is not the unit sphere fails, and the runner exits non-zero. The
+    altered module is a Mod folder of its own (FreeCAD 1.1 does not read PYTHONPATH)."""
     env, work = installed
-    (tmp_path / "TestHullProdAltered.py").write_text(
-        "import Part\n"
-        "from hullprod_wb.examples import analytic_shapes\n"
-        "analytic_shapes.unit_sphere = lambda: Part.makeSphere(1.1)\n"
-        "from TestHullProd import TestHullProdClosedForms  # noqa: F401\n")
-    env = dict(env, PYTHONPATH=str(tmp_path))
+    mod = os.path.join(user_mod_folder(env, work), "HullProdAltered")
+    os.makedirs(mod, exist_ok=True)
+    with open(os.path.join(mod, "TestHullProdAltered.py"), "w") as fh:
+        fh.write("import Part\n"
+                 "from hullprod_wb.examples import analytic_shapes\n"
+                 "analytic_shapes.unit_sphere = lambda: Part.makeSphere(1.1)\n"
+                 "from TestHullProd import TestHullProdClosedForms  # noqa: F401\n")
     r = freecadcmd(env, "-t", "TestHullProdAltered.TestHullProdClosedForms.test_unit_sphere", cwd=work)
     out = r.stdout + r.stderr
     assert r.returncode != 0 and "sphere I_D is" in out and "FAILED (failures=1)" in out, out[-3000:]

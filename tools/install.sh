@@ -29,7 +29,7 @@ fi
 
 # Link the workbench into the user Mod folder of every installed FreeCAD, as each one
 # reports it (FreeCAD.getUserAppDataDir(): FreeCAD 1.1 gives a fresh user v1-1/), and into
-# the older unversioned folders that already exist. A folder FreeCAD did not name is not
+# the older unversioned Mod folders that already exist. A folder FreeCAD did not name is not
 # created: its presence would change where FreeCAD 1.1 keeps the user's data.
 mods=""
 for cmd in freecadcmd FreeCADCmd freecadcmd-daily; do
@@ -40,7 +40,7 @@ for cmd in freecadcmd FreeCADCmd freecadcmd-daily; do
 done
 [ -n "$mods" ] || mods="${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD/Mod"$'\n'
 for legacy in "$HOME/.FreeCAD" "${XDG_DATA_HOME:-$HOME/.local/share}/FreeCAD"; do
-  [ -d "$legacy" ] && mods="$mods$legacy/Mod"$'\n'
+  [ -d "$legacy/Mod" ] && mods="$mods$legacy/Mod"$'\n'
 done
 while IFS= read -r mod; do
   [ -n "$mod" ] || continue
