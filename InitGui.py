@@ -1,4 +1,5 @@
 # HullProd workbench: GUI-side registration. Executed by FreeCAD without __file__.
+import FreeCAD
 import FreeCADGui
 
 
@@ -29,3 +30,5 @@ class HullProdWorkbench(FreeCADGui.Workbench):
 
 
 FreeCADGui.addWorkbench(HullProdWorkbench())
+# The GUI self-test in the Test workbench (its App half is registered in Init.py).
+FreeCAD.__unit_test__ += ["TestHullProdGui"]

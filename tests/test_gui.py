@@ -56,8 +56,11 @@ def gui(tmp_path_factory, shots):
                HULLPROD_SHARED_HULLS=SHARED_HULLS if os.path.isdir(SHARED_HULLS) else "")
     env.pop("QT_QPA_PLATFORM", None)  # the real window system (Xvfb), not Qt's offscreen plugin
     # Own process group: on a timeout xvfb-run, Xvfb and FreeCAD are all stopped.
-    proc = subprocess.Popen(["xvfb-run", "-a", "freecad", SCRIPT], env=env, cwd=str(work),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    # A screen larger than the window (1500 x 950, resized up to 1600 x 1000 on the way): a
+    # part of the window off the screen is not seen by anybody (on_screen's checks).
+    proc = subprocess.Popen(["xvfb-run", "-a", "-s", "-screen 0 1920x1200x24", "freecad", SCRIPT], env=env, cwd=str(work),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, encoding="utf-8",
+                            errors="replace", start_new_session=True)
     try:
         stdout, stderr = proc.communicate(timeout=TIMEOUT)
     except subprocess.TimeoutExpired:
@@ -94,7 +97,112 @@ def assert_not_blank(path, min_colors=20, min_ink=0.01):
     assert distinct >= min_colors and ink >= min_ink, "%s looks blank: %d colours, %.3f ink" % (path, distinct, ink)
 
 
-def test_long_run_keeps_the_gui_responsive_and_cancels(gui):
+def assert_seen(rec, what):
+    """An on_screen.seen_by_a_person record says a person sees the widget."""
+    assert rec is not None, "%s: nothing recorded (no run going on?)" % what
+    assert rec["seen"] is True, "%s is not seen on screen: %s\n%s" % (what, rec.get("why"), rec)
+    assert rec["points"] and all(hit for _, _, hit in rec["points"]), rec
+
+
+def block_means(img, b=4):
+    """Grey level of img averaged over b x b blocks (sub-pixel shifts and the antialiasing
+    of a fractional device pixel ratio average out)."""
+    h, w = img.shape[0] // b * b, img.shape[1] // b * b
+    return img[:h, :w].mean(axis=2).reshape(h // b, b, w // b, b).mean(axis=(1, 3))
+
+
+def assert_panel_in_picture(gui, shots, name, min_corr=0.8):
+    """The window screenshot `name` shows the panel as the panel itself paints: over its
+    visible part the picture and the panel's own grab correlate (4-pixel block means,
+    Pearson r >= min_corr; the 3D view in its place gives r near 0). The picture shows what
+    a person sees, not the 3D view pasted over the panel."""
+    import matplotlib.image as mpimg
+    rec = gui["panel_in_shot"][name]
+    shot_img = mpimg.imread(os.path.join(shots, name + ".png"))[..., :3]
+    own = mpimg.imread(rec["grab"])[..., :3]
+    (x, y, w, h), (ox, oy) = rec["rect"], rec["offset"]
+    assert w > 50 and h > 50 and rec["scale"][0] == pytest.approx(rec["scale"][1], abs=0.01), rec
+    crop, part = shot_img[y:y + h, x:x + w], own[oy:oy + h, ox:ox + w]
+    hh, ww = min(crop.shape[0], part.shape[0]), min(crop.shape[1], part.shape[1])
+    assert hh > 0.9 * h and ww > 0.9 * w, (crop.shape, part.shape, rec)
+    a, b = (block_means(img[:hh, :ww]).ravel() for img in (crop, part))
+    a, b = a - a.mean(), b - b.mean()
+    r = float((a * b).sum() / np.sqrt((a * a).sum() * (b * b).sum() + 1e-12))
+    assert r >= min_corr, "%s: the picture does not show the panel where it is (r = %.2f)" % (name, r)
+
+
+def test_on_screen_tells_hidden_covered_and_seen_widgets():
+    """on_screen.seen_by_a_person in a plain Qt window: a page behind another tab, a button
+    under an opaque frame and one under a small label at its centre are not seen; a free
+    button and the page brought forward (bring_into_view) are."""
+    from hullprod_wb.gui.qt import QtWidgets
+    from hullprod_wb.gui.on_screen import bring_into_view, seen_by_a_person
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
+    win = QtWidgets.QWidget()
+    win.resize(420, 320)
+    tabs = QtWidgets.QTabWidget(win)
+    tabs.setGeometry(0, 0, 200, 300)
+    model, tasks = QtWidgets.QLabel("model"), QtWidgets.QLabel("tasks")
+    tabs.addTab(model, "Model")
+    tabs.addTab(tasks, "Tasks")
+    under = QtWidgets.QPushButton("under", win)
+    under.setGeometry(220, 20, 150, 80)
+    cover = QtWidgets.QFrame(win)
+    cover.setAutoFillBackground(True)
+    cover.setGeometry(210, 10, 180, 100)
+    spot = QtWidgets.QPushButton("spot", win)
+    spot.setGeometry(220, 120, 150, 80)
+    label = QtWidgets.QLabel("x", win)
+    label.setGeometry(285, 150, 20, 20)
+    free = QtWidgets.QPushButton("free", win)
+    free.setGeometry(220, 220, 150, 80)
+    win.show()
+    for _ in range(20):
+        app.processEvents()
+    try:
+        hidden, covered, centre = seen_by_a_person(tasks), seen_by_a_person(under), seen_by_a_person(spot)
+        assert not hidden["seen"] and "hidden" in hidden["why"]
+        assert not covered["seen"] and covered["why"]
+        assert not centre["seen"] and "covered at 1 of 5 points" in centre["why"], centre
+        assert seen_by_a_person(free)["seen"] and seen_by_a_person(model)["seen"]
+        bring_into_view(tasks)
+        app.processEvents()
+        assert seen_by_a_person(tasks)["seen"] and not seen_by_a_person(model)["seen"]
+        # another top-level window over the free button: not seen, unless other windows are let pass
+        over = QtWidgets.QDialog()
+        over.setGeometry(free.mapToGlobal(free.rect().center()).x() - 10,
+                         free.mapToGlobal(free.rect().center()).y() - 10, 30, 30)
+        over.show()
+        for _ in range(20):
+            app.processEvents()
+        strict, lenient = seen_by_a_person(free), seen_by_a_person(free, other_windows_ok=True)
+        over.close()
+        assert not strict["seen"] and "QDialog" in strict["why"], strict
+        assert lenient["seen"] and lenient["under"], lenient
+    finally:
+        win.close()
+        win.deleteLater()
+
+
+def test_gui_selftest_suite_in_the_session(gui):
+    """TestHullProdGui (FreeCAD's Test workbench suite, hullprod_wb.gui.selftest) run in the
+    GUI session: at least its 4 tests, none failing, none skipped (the GUI is up)."""
+    rec = step(gui, "gui_selftest")
+    assert rec["run"] >= 4 and rec["failures"] == 0 and rec["errors"] == 0, rec
+    assert rec["skipped"] == 0, rec
+    assert os.path.realpath(rec["file"]) == os.path.realpath(os.path.join(ROOT, "TestHullProdGui.py"))
+
+
+def test_running_state_seen(gui):
+    """While a run goes on (errors_and_cancel's long run, before Cancel) the progress bar and
+    the task dialog's Cancel button are seen on screen."""
+    rec = step(gui, "errors_and_cancel")["running_on_screen"]
+    assert rec is not None, "the run ended before its first progress"
+    assert_seen(rec["bar"], "the progress bar")
+    assert_seen(rec["cancel"], "the Cancel button")
+
+
+def test_long_run_keeps_the_gui_responsive_and_cancels(gui, shots):
     """OK on a long run (KVLCC2, rtol 1e-6, depth 6) with the view orbiting: the view redraws
     at least once a second; Cancel ends the assessment process within a second and the panel
     says so; no analysis is made and no error is reported."""
@@ -109,7 +217,10 @@ def test_long_run_keeps_the_gui_responsive_and_cancels(gui):
     assert rec["message_in_view"] == {"1600x1000": True, "1280x720": True}  # the line is not clipped
     assert rec["created"] == 0 and rec["errors"] == []
     assert rec["proposal"].startswith("automatic: ") and "computing" not in rec["proposal"]  # arrived meanwhile
+    assert_seen(rec["running_on_screen"]["bar"], "the progress bar")
+    assert_seen(rec["running_on_screen"]["cancel"], "the Cancel button")
     assert_not_blank(rec["png_running"])
+    assert_panel_in_picture(gui, shots, "analyze_running")
 
 
 @pytest.mark.parametrize("fname", ["dtmb5415_half_overture.igs", "kcs_full_closed_ohp.iges"])
@@ -148,6 +259,7 @@ def test_workbench_toolbar_menu_commands(gui):
     assert "HullProd" in rec["toolbars"] and rec["has_menu"]
     assert all(rec["commands"].values()), rec["commands"]
     assert rec["toolbar_actions"] >= 9
+    assert {"HullProd_Analyze", "HullProd_Probe", "HullProd_StudyThresholds"} <= set(rec["registered"])
     assert rec["icons"] == {"HullProd_Analyze": True, "preferences-hullprod": True}
 
 
@@ -171,7 +283,9 @@ def test_analyze_brep_through_panel(gui, shots):
     assert rec["source_visible"] is False  # hidden (a view setting), not modified
     assert rec["selected_after"] == []  # no selection highlight tints the new map
     assert rec["precision_types"] == ["App::PropertyPrecision"] * 3  # shown with their digits, not "0.00"
+    assert_seen(rec["on_screen"], "the Analyze panel")
     assert_not_blank(os.path.join(shots, "analyze_panel.png"))
+    assert_panel_in_picture(gui, shots, "analyze_panel")
 
 
 def test_colour_maps_one_colour_per_vertex(gui):
@@ -198,7 +312,7 @@ def test_verification_menu_runs_a_study_and_writes_the_report(gui):
     assert rec["has_threshold_table"]
 
 
-def test_validity_panel(gui):
+def test_validity_panel(gui, shots):
     rec = step(gui, "validity_panel")
     rows = rec["rows"]
     assert [r[0] for r in rows] == list(METRICS)
@@ -215,10 +329,12 @@ def test_validity_panel(gui):
     assert "linear" in rec["linear_title"]
     assert "0.0743953 mm\u00b2" in rec["areas"] and "{" not in rec["units_row"]  # a 1 mm part: mm², not 7e-08 m²
     assert rec["reason_scrolls"] is False  # the reasons wrap instead of scrolling sideways
+    assert_seen(rec["on_screen"], "the validity panel")
     assert_not_blank(rec["png"])
+    assert_panel_in_picture(gui, shots, "validity_panel")
 
 
-def test_probe_exact_on_brep(gui):
+def test_probe_exact_on_brep(gui, shots):
     rec = step(gui, "probe_wigley")
     r = rec["result"]
     assert r is not None, "no hull under the probed pixel (tried %s)" % rec["tried"]
@@ -229,7 +345,9 @@ def test_probe_exact_on_brep(gui):
     assert rec["rows"] == 1 and rec["callback_removed"] is True
     assert "K (1/mm\u00b2)" in rec["headers"] and "H (1/mm)" in rec["headers"]
     assert rec["marker_before"] > 0 and rec["marker_after"] == 0  # the marker goes with the panel
+    assert_seen(rec["on_screen"], "the probe panel")
     assert_not_blank(rec["png"])
+    assert_panel_in_picture(gui, shots, "probe_panel")
 
 
 def test_mesh_analysis_and_interpolated_probe(gui):

@@ -481,5 +481,5 @@ def select_wait(proc, seconds):
 
 
 def show_analyze_panel(sources, ignored=()):
-    from .qt import show_task_panel
+    from .on_screen import show_task_panel
     return show_task_panel(AnalyzePanel(sources, ignored))

@@ -107,5 +107,5 @@ class ComparePanel(CloseOnlyPanel):
 
 
 def show_compare_panel(analyses):
-    from .qt import show_task_panel
+    from .on_screen import show_task_panel
     return show_task_panel(ComparePanel(analyses))

@@ -159,8 +159,7 @@ def start_probe(analyses):
         raise RuntimeError("the active view is not a 3D view")
     if ACTIVE is not None:
         ACTIVE.stop()
-    if FreeCADGui.Control.activeDialog():
+    if FreeCADGui.Control.activeDialog():  # before the panel starts listening to the view
         FreeCADGui.Control.closeDialog()
-    panel = ProbePanel(view, analyses)
-    FreeCADGui.Control.showDialog(panel)
-    return panel
+    from .on_screen import show_task_panel
+    return show_task_panel(ProbePanel(view, analyses))

@@ -11,22 +11,13 @@ except ImportError:  # pragma: no cover - outside FreeCAD
     except ImportError:
         from PySide6 import QtCore, QtGui, QtWidgets
 
-__all__ = ["QtCore", "QtGui", "QtWidgets", "close_button", "show_task_panel", "CloseOnlyPanel"]
+__all__ = ["QtCore", "QtGui", "QtWidgets", "close_button", "CloseOnlyPanel"]
 
 
 def close_button():
     """int of QDialogButtonBox.Close for a task panel's getStandardButtons (PySide2 and 6)."""
     b = QtWidgets.QDialogButtonBox.Close
     return int(getattr(b, "value", b))
-
-
-def show_task_panel(panel):
-    """Show panel in FreeCAD's task view, closing another open task dialog first."""
-    import FreeCADGui
-    if FreeCADGui.Control.activeDialog():
-        FreeCADGui.Control.closeDialog()
-    FreeCADGui.Control.showDialog(panel)
-    return panel
 
 
 class CloseOnlyPanel:

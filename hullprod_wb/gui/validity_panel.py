@@ -322,5 +322,5 @@ class ValidityPanel(CloseOnlyPanel):
 
 def show_validity_panel(obj):
     """Open the panel for analysis obj in the task view (closing another open task)."""
-    from .qt import show_task_panel
+    from .on_screen import show_task_panel
     return show_task_panel(ValidityPanel(obj))

@@ -51,6 +51,8 @@ try:
     import FreeCADGui
     import Mesh
     from hullprod_wb.gui.qt import QtCore, QtGui, QtWidgets
+    from hullprod_wb.gui import selftest
+    from hullprod_wb.gui.on_screen import seen_by_a_person
     import hullprod_wb
     RESULT["package"] = os.path.realpath(os.path.dirname(hullprod_wb.__file__))
     os.makedirs(SHOTS, exist_ok=True)
@@ -121,14 +123,19 @@ def widget_in_view(widget):
     return QtCore.QRect(mw.mapToGlobal(QtCore.QPoint(0, 0)), mw.size()).contains(rect)
 
 
-def window_shot(name):
-    """The whole main window with the 3D view pasted in (GL contents do not grab)."""
+def window_shot(name, panel=None):
+    """The main window as a person sees it: the window grabbed, the 3D view's own image
+    pasted over its area (GL contents do not grab), then the widgets FreeCAD 1.x draws
+    over the 3D view (overlay docks, e.g. the task panel in "OverlayRight") on top.
+    panel: a widget the picture should show; its rectangle in the picture and its own
+    grab are recorded (RESULT["panel_in_shot"]) for the test to compare."""
     FreeCADGui.Selection.clearSelection()
     mw = FreeCADGui.getMainWindow()
     process(100)
     pix = mw.grab()
     mdi = mw.findChild(QtWidgets.QMdiArea)
     sub = mdi.activeSubWindow() if mdi is not None else None
+    painted = []
     if sub is not None:
         w = sub.widget()
         pos = w.mapTo(mw, QtCore.QPoint(0, 0))
@@ -136,10 +143,35 @@ def window_shot(name):
         view().saveImage(tmp, w.width(), w.height(), "Current")
         painter = QtGui.QPainter(pix)
         painter.drawImage(pos, QtGui.QImage(tmp))
+        for over in over_the_view(mw, w):
+            painter.drawPixmap(over.mapTo(mw, QtCore.QPoint(0, 0)), over.grab())
+            painted.append(over.objectName())
         painter.end()
     path = os.path.join(SHOTS, name + ".png")
     pix.save(path)
+    RESULT.setdefault("overlays_painted", {})[name] = painted
+    if panel is not None:
+        own = os.path.join(WORK, name + "_panel.png")
+        own_pix = panel.grab()
+        own_pix.save(own)
+        from hullprod_wb.gui.on_screen import visible_rect
+        clip = visible_rect(panel)  # the part not scrolled or clipped away
+        at, inner = mw.mapFromGlobal(clip.topLeft()), panel.mapFromGlobal(clip.topLeft())
+        k, kp = pix.width() / mw.width(), own_pix.width() / panel.width()  # image pixels per widget pixel
+        RESULT.setdefault("panel_in_shot", {})[name] = {
+            "rect": [round(v * k) for v in (at.x(), at.y(), clip.width(), clip.height())],
+            "offset": [round(inner.x() * kp), round(inner.y() * kp)], "scale": [k, kp], "grab": own}
     return path
+
+
+def over_the_view(mw, view_widget):
+    """Shown widgets drawn over the 3D view widget that are not part of it: FreeCAD's
+    overlay tab widgets (objectName Overlay*), outermost only."""
+    area = QtCore.QRect(view_widget.mapTo(mw, QtCore.QPoint(0, 0)), view_widget.size())
+    found = [o for o in mw.findChildren(QtWidgets.QWidget) if o.objectName().startswith("Overlay") and o.isVisible()
+             and not o.isAncestorOf(view_widget) and not view_widget.isAncestorOf(o)
+             and QtCore.QRect(o.mapTo(mw, QtCore.QPoint(0, 0)), o.size()).intersects(area)]
+    return [o for o in found if not any(p is not o and p.isAncestorOf(o) for p in found)]
 
 
 def wait_for(cond, seconds):
@@ -200,7 +232,7 @@ STATE = {}
 
 @step("workbench")
 def _():
-    FreeCADGui.activateWorkbench("HullProdWorkbench")
+    registered = selftest.check_workbench()  # activates it, AssertionError if a command is missing
     mw = FreeCADGui.getMainWindow()
     mw.resize(1500, 950)
     combo = [d for d in mw.findChildren(QtWidgets.QDockWidget) if d.objectName() in ("Combo View", "ComboView")]
@@ -219,7 +251,7 @@ def _():
     actions = [a.objectName() or a.text() for a in tb[0].actions()] if tb else []
     return {"active": FreeCADGui.activeWorkbench().name(), "toolbars": bars,
             "has_menu": any("HullProd" in m for m in menus), "commands": {n: n in listed for n in names},
-            "toolbar_actions": len([x for x in actions if x]),
+            "toolbar_actions": len([x for x in actions if x]), "registered": registered["commands"],
             "icons": {n: not FreeCADGui.getIcon(n).isNull() for n in ("HullProd_Analyze", "preferences-hullprod")}}
 
 
@@ -242,12 +274,13 @@ def _():
     process(100)
     p = analyze_panel.LAST_PANEL
     shown = FreeCADGui.Control.activeDialog()
+    on_screen = seen_by_a_person(p.form)
     p.explicit_radio.setChecked(True)
     p.lref_edit.setText("1.0")
     defaults = [p.protocol_combo.currentText(), p.budget_spin.value(), p.depth_limit_spin.value()]
     tips = [bool(w.toolTip()) for w in (p.protocol_combo, p.budget_spin, p.depth_limit_spin, p.depth_spin)]
     rows = quick_quadrature(p)
-    window_shot("analyze_panel")
+    window_shot("analyze_panel", p.form)
     texts = {"proposal": p.auto_radio.text(), "method": p.method_label.text(),
              "advanced_enabled": p.advanced.isEnabled(), "protocol_rows": rows, "quadrature_defaults": defaults,
              "quadrature_tips": tips}
@@ -259,7 +292,7 @@ def _():
     hull_camera()
     texts["selected_after"] = selected_after
     texts["precision_types"] = [a.getTypeIdOfProperty(n) for n in ("Hf", "Kf", "QuadratureRtol")]
-    return {"panel_shown": bool(shown), "no_selection_error": [m[2] for m in no_sel], **texts,
+    return {"panel_shown": bool(shown), "no_selection_error": [m[2] for m in no_sel], **texts, "on_screen": on_screen,
             "quadrature": [a.QuadratureOrder, a.QuadratureRtol, a.QuadratureMaxDepth],
             "budget_settings": [a.QuadratureProtocol, a.QuadraturePointBudget, a.QuadratureDepthLimit],
             "run_options": {k: json.loads(a.ResultJSON)["options"].get(k) for k in ("protocol", "point_budget", "depth_limit")},
@@ -309,23 +342,11 @@ def _():
 
 @step("validity_panel")
 def _():
-    from hullprod_wb.gui import validity_panel
     a = STATE["a_wigley"]
     FreeCADGui.Selection.clearSelection()
     FreeCADGui.Selection.addSelection(a)
     FreeCADGui.runCommand("HullProd_ShowDevelopability")
-    orig = validity_panel.show_validity_panel
-    got = {}
-
-    def capture(obj):
-        got["panel"] = orig(obj)
-        return got["panel"]
-    validity_panel.show_validity_panel = capture
-    try:
-        FreeCADGui.runCommand("HullProd_ValidityPanel")
-    finally:
-        validity_panel.show_validity_panel = orig
-    p = got["panel"]
+    p = selftest.opened_validity_panel(a)
     process(100)
     t = p.signature_table
     cells = [[t.item(i, j).text() for j in range(t.columnCount())] for i in range(t.rowCount())]
@@ -350,14 +371,15 @@ def _():
     texts = {"areas": p.areas_label.text(), "units_row": dict(p.provenance_rows).get("units"),
              "reason_scrolls": p.signature_table.horizontalScrollBar().isVisible()}
     p.set_map("Developability")
-    path = window_shot("validity_panel")
+    on_screen = seen_by_a_person(p.form)
+    path = window_shot("validity_panel", p.form)
     FreeCADGui.Control.closeDialog()
     return {"rows": cells, "status_colors": [r["color"] for r in p.rows],
             "provenance": [k for k, _ in p.provenance_rows], "face_rows": getattr(p, "face_rows", []),
             "json_copied": copied == a.ResultJSON and clip == a.ResultJSON, "tree_top": tree_top,
             "legend_after_click": legend_after_click, "png": path, "class_entries": class_entries,
             "enabled_while_open": enabled_while_open, "scale_before": scale_before, "fixed_ticks": fixed_ticks,
-            "linear_title": linear_title, **texts}
+            "linear_title": linear_title, "on_screen": on_screen, **texts}
 
 
 @step("probe_wigley")
@@ -383,7 +405,8 @@ def _():
             break
     process(50)
     path = shot("wigley_probe")
-    window_shot("probe_panel")
+    on_screen = seen_by_a_person(panel.form)
+    window_shot("probe_panel", panel.form)
     rows = panel.table.rowCount()
     headers = [panel.table.horizontalHeaderItem(j).text() for j in range(panel.table.columnCount())]
     marker_before = a.ViewObject.Proxy.marker_sep.getNumChildren()
@@ -391,6 +414,7 @@ def _():
     process(50)
     return {"result": r, "rows": rows, "tried": tried, "target": [pt.x, pt.y, pt.z], "png": path,
             "callback_removed": probe.ACTIVE is None, "headers": headers, "marker_before": marker_before,
+            "on_screen": on_screen,
             "marker_after": a.ViewObject.Proxy.marker_sep.getNumChildren()}
 
 
@@ -595,6 +619,7 @@ def _():
     p.depth_spin.setValue(12)
     p.start()
     wait_for(lambda: p.running is None or p.processes[p.running].last_progress is not None, 30)
+    running_on_screen = selftest.running_seen(p) if p.running is not None else None
     p.reject()
     msg = p.message.text()
     cancelled = p.made
@@ -623,7 +648,7 @@ def _():
     return {"bad_created": len(bad), "errors": errors, "cancel_created": len(cancelled),
             "objects_unchanged": len(doc.Objects) == count, "cancel_message": msg, "compare_error": compare_err,
             "deleted": deleted, "source_shown_after_delete": source_shown, "other_analyses": len(others),
-            "RunProgress": RunProgress.__name__}
+            "RunProgress": RunProgress.__name__, "running_on_screen": running_on_screen}
 
 
 
@@ -682,7 +707,8 @@ def _():
     t1 = time.monotonic()
     progress_text = p.message.text()
     proposal_while_running = p.auto_radio.text()
-    shot_running = window_shot("analyze_running")
+    seen_running = selftest.running_seen(p) if running_after else None
+    shot_running = window_shot("analyze_running", p.form)
     pid = p.processes[p.running].proc.pid if running_after else None
     tc = time.monotonic()
     p.reject()  # Cancel
@@ -718,7 +744,8 @@ def _():
             "max_gap": max(gaps) if gaps else None, "progress_text": progress_text,
             "cancel_seconds": gone, "message": msg, "created": len(made), "proposal": proposal_while_running,
             "errors": [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:],
-            "png_running": shot_running, "png_cancelled": shot_cancel, "message_in_view": message_in_view}
+            "png_running": shot_running, "png_cancelled": shot_cancel, "message_in_view": message_in_view,
+            "running_on_screen": seen_running}
 
 
 def cli_seconds(path):
@@ -938,6 +965,16 @@ def _():
     preferences.reset()
     page.loadSettings()
     return {"stored": stored, "reloaded": page.edits["DefaultHf"].text()}
+
+
+@step("gui_selftest")
+def _():
+    """The Test workbench's TestHullProdGui suite (hullprod_wb.gui.selftest) in this session."""
+    active = FreeCAD.ActiveDocument.Name if FreeCAD.ActiveDocument else None
+    out = selftest.run_suite("TestHullProdGui")
+    if active in FreeCAD.listDocuments():
+        FreeCAD.setActiveDocument(active)
+    return out
 
 
 finish()
