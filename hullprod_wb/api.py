@@ -14,7 +14,7 @@ def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
         return file_representation(source)  # and its structure checked
-    if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.record_reader)
+    if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.reading.record_reader)
         return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
         return "mesh"
@@ -38,8 +38,8 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
     in the input's units (None: automatic). h_f, k_f: class tolerances. backend: 'brep',
     'mesh' or None (by representation). faces: 1-based BRep face numbers to assess.
     options: BRep settings (order, rtol, max_depth, protocol, point_budget, depth_limit: see
-    brep.budget.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
-    brep.face_pool). A FreeCAD document (.FCStd path): object_name (Name or Label) selects
+    brep.validity.budget.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
+    core.processes). A FreeCAD document (.FCStd path): object_name (Name or Label) selects
     its object (document_input.document_object). Every file's structure is checked before a
     reader sees it (core.file_checks). Returns an Assessment.
     """
@@ -66,9 +66,9 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
                            progress=progress)
     if isinstance(source, (str, os.PathLike)):
         # OpenCascade reads the file in a child, which sends its plain records while this
-        # process loads numpy and the backend (brep.record_reader); a reader that ends the
+        # process loads numpy and the backend (brep.reading.record_reader); a reader that ends the
         # child is reported (core.errors.ReaderDied), and this process reads no file itself
-        from .brep.record_reader import ReadInChild
+        from .brep.reading.record_reader import ReadInChild
         source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
     try:
         from .brep.backend import assess_brep

@@ -1,5 +1,5 @@
 """A BRep file assessed from the plain records of a reading child process
-(brep.record_reader, brep.recorded_shape): the same numbers, to the bit, as reading it in
+(brep.reading.record_reader, brep.recorded_shape): the same numbers, to the bit, as reading it in
 this process; faces the records do not describe sent as OpenCascade's data; a child that
 dies reported; errors with the same messages; a reading side that never loads numpy."""
 import math
@@ -10,11 +10,11 @@ import sys
 import pytest
 
 from conftest import made_in_a_child, needs_freecad, shared_hull
-from hullprod_wb.brep import face_pool
+from hullprod_wb.core import processes
 from hullprod_wb.core.errors import InputError
 
 pytestmark = [needs_freecad,
-              pytest.mark.skipif(not face_pool.fork_is_safe(), reason="forking is not available here")]
+              pytest.mark.skipif(not processes.fork_is_safe(), reason="forking is not available here")]
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _PARENT = os.getpid()
@@ -52,7 +52,7 @@ def trimmed_bspline_face():
 def both_ways(path, **kw):
     """(assessed from the records of a reading child, assessed from the file read here)."""
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     with_fields = kw.get("with_fields", True)
     recorded = assess_brep(ReadInChild(path, kw.get("faces"), with_fields), **kw)
     here = assess_brep(path, **kw)
@@ -135,7 +135,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
     OpenCascade's binary BRep data and rebuilt where they are integrated: the values of the
     file read here, whatever the processes."""
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, V = _part()
     box, mixed = str(tmp_path / "box.step"), str(tmp_path / "mixed.step")
@@ -159,7 +159,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
 
 def test_errors_of_the_reading_process_are_raised_here(tmp_path):
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     bad = tmp_path / "bad.igs"
     bad.write_text("not an IGES file\n" * 5)
     with pytest.raises(InputError) as here:
@@ -184,7 +184,7 @@ def test_a_reading_process_that_dies_is_reported(tmp_path, monkeypatch):
     """A reading process that ends (an exit or a signal) before its last frame raises
     ReaderDied, naming the file, what OpenCascade was doing and the likely cause; nothing
     is read here instead."""
-    from hullprod_wb.brep import lref_samples, loading, record_reader
+    from hullprod_wb.brep.reading import lref_samples, loading, record_reader
     from hullprod_wb.brep.backend import assess_brep
     from hullprod_wb.core.errors import ReaderDied
     path = str(tmp_path / "wavy.step")
@@ -220,7 +220,7 @@ def test_the_reading_side_does_not_load_numpy(tmp_path):
         "from hullprod_wb.freecad_env import import_freecad\n"
         "import_freecad()\n"
         "from hullprod_wb.brep import record_reader\n"
-        "from hullprod_wb.brep.loading import load_brep\n"
+        "from hullprod_wb.brep.reading.loading import load_brep\n"
         "frames = list(record_reader._frames(load_brep(%r), True, None, 0.0))\n"
         "assert len(frames) == 3 and 'faces' in frames[0], frames[0]\n"
         "assert 'numpy' not in sys.modules, sorted(m for m in sys.modules if 'numpy' in m)[:5]\n"
@@ -248,8 +248,8 @@ def test_the_command_reads_brep_files_in_a_separate_process(tmp_path):
 
 def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatch):
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
-    from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
+    from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
     path = str(tmp_path / "trimmed.step")
     trimmed_bspline_face().exportStep(path)
     here = assess_brep(path, with_fields=False, lref=4.0)
@@ -267,9 +267,9 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     to its worker."""
     from hullprod_wb.brep import backend
     from hullprod_wb.brep.face_setup import FaceSetup
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
-    from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+    from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
     Part, _ = _part()
     path = str(tmp_path / "two.step")
     made_in_a_child(lambda: Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()])).exportStep(path)
@@ -313,7 +313,7 @@ def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tesse
     (cubature.NodePrefetch) until L_ref arrives; the integration takes those values over:
     the same integrals, to the bit, as the file read here."""
     from hullprod_wb.brep import backend, cubature
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, _ = _part()
     path = str(tmp_path / "lone.step")

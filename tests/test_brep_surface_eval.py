@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from conftest import needs_freecad, shared_hull
-from hullprod_wb.brep import differential
-from hullprod_wb.brep.nurbs import NurbsSurfaceData
-from hullprod_wb.brep.surface_eval import SurfaceEvaluator, face_surface
+from hullprod_wb.brep.geometry import differential
+from hullprod_wb.brep.geometry.nurbs import NurbsSurfaceData
+from hullprod_wb.brep.geometry.surface_eval import SurfaceEvaluator, face_surface
 from hullprod_wb.core.errors import InputError
 
 TOL = 1e-9  # see module docstring
@@ -458,7 +458,7 @@ def test_face_field_grid_equals_pointwise(fc):
     """FaceField.grid and area_element_grid give the pointwise fields (J, K, H, regular) of a
     trimmed B-spline face's grids, and the cubature's values at grid cells equal those of the
     same field without a grid method."""
-    from hullprod_wb.brep.face_field import FaceField
+    from hullprod_wb.brep.geometry.face_field import FaceField
     from hullprod_wb.brep.cubature.cells import _Field
     _, Part = fc
     ff = FaceField(make_bspline(fc, rational=True).toShape())

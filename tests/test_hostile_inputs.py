@@ -218,8 +218,8 @@ def test_a_face_that_raises_is_not_evaluated(monkeypatch):
 
 @needs_freecad
 def test_occ_area_failures_do_not_end_the_provenance():
-    from hullprod_wb.brep.loading import load_brep
-    from hullprod_wb.brep.provenance import occ_face_area, shape_provenance
+    from hullprod_wb.brep.reading.loading import load_brep
+    from hullprod_wb.brep.reading.provenance import occ_face_area, shape_provenance
     inp = load_brep(shared_hull("brep/wigley_full_freecadship.brep"))
     failed = [n for n, f in inp.faces if occ_face_area(f) is None]
     assert failed  # OpenCascade's BRepGProp raises on some of its faces
@@ -230,9 +230,9 @@ def test_occ_area_failures_do_not_end_the_provenance():
 @needs_freecad
 def test_face_without_domain_extent_has_zero_area():
     from hullprod_wb.brep.face_setup import FaceSetup
-    from hullprod_wb.brep.face_setup import EmptyDomain
-    from hullprod_wb.brep.left_out import left_out_face
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.geometry.trimmed_domain import EmptyDomain
+    from hullprod_wb.brep.validity.left_out import left_out_face
+    from hullprod_wb.brep.reading.loading import load_brep
     inp = load_brep(shared_hull("brep/kcs_full_closed_ohp.iges"))
     empty = []
     for n, f in inp.faces:

@@ -10,9 +10,9 @@ import pytest
 from conftest import needs_freecad, shared_hull
 from hullprod_wb.brep.cubature import GROUP_MIN_PATCHES, GROUPS, QUANTITIES, integrate, patch_groups
 from hullprod_wb.brep.cubature.cells import CellSet
-from hullprod_wb.brep.pcurves import ConicArc2D, FunctionCurve2D, NurbsCurve2D
-from hullprod_wb.brep.roots import solve_bracketed
-from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+from hullprod_wb.brep.geometry.pcurves import ConicArc2D, FunctionCurve2D, NurbsCurve2D
+from hullprod_wb.brep.cubature.roots import solve_bracketed
+from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
 from hullprod_wb.core.errors import InputError
 
 TAU_H, TAU_K = 1e-4, 1e-3
@@ -534,7 +534,7 @@ def test_sphere_and_cylinder_faces_with_seams(fc):
 @needs_freecad
 def test_pcurve_conversion_and_occ_fallback(fc):
     from FreeCAD import Base
-    from hullprod_wb.brep.pcurves import OccCurve2D, curve_from_geom2d
+    from hullprod_wb.brep.geometry.pcurves import OccCurve2D, curve_from_geom2d
     G = fc.Part.Geom2d
     ellipse = G.Ellipse2d(Base.Vector2d(2, 0), Base.Vector2d(0, 1), Base.Vector2d(0.5, 0.2))
     for geom in (ellipse, G.Circle2d(Base.Vector2d(0.5, 0.2), 1.0)):
@@ -678,7 +678,7 @@ def test_refinement_history_ends_at_the_result():
 
 
 def test_embedded_rule_is_exact_to_degree_n_minus_2():
-    from hullprod_wb.brep.gauss_rules import embedded_weights as _embedded_weights, gauss_nodes as _gauss
+    from hullprod_wb.brep.cubature.gauss_rules import embedded_weights as _embedded_weights, gauss_nodes as _gauss
     for n in (3, 5, 8):
         x, _ = _gauss(n)
         w = _embedded_weights(x)
@@ -921,7 +921,7 @@ def test_segment_series_roots_and_exact_integrals():
     pieces are exact against numpy's polynomial antiderivatives."""
     from numpy.polynomial import legendre as leg
     from numpy.polynomial import polynomial as poly
-    from hullprod_wb.brep.cell_interpolant import SegmentField, monomial_matrix
+    from hullprod_wb.brep.cubature.cell_interpolant import SegmentField, monomial_matrix
     deg = 9
     M = monomial_matrix(deg)
     for k in range(deg + 1):
@@ -1004,7 +1004,7 @@ def test_tangency_points_by_newton_on_the_cell_interpolant():
     """A level curve g = c of a cell's interpolant touches a line sigma = const where g = c
     and dg/dt = 0: Newton on that pair finds the point to rounding; a start whose Newton
     path leaves the box gives NaN (the caller's bracketed search takes it)."""
-    from hullprod_wb.brep.cell_interpolant import monomial_matrix, tangency_points
+    from hullprod_wb.brep.cubature.cell_interpolant import monomial_matrix, tangency_points
     deg = 9
     Minv = np.linalg.inv(monomial_matrix(deg))
     # K(x, y) = (y - 0.2)^2 - 0.5 (x - 0.1) + 0.3 x y^3 in local coordinates (x, y) in [-1, 1]^2:
@@ -1045,7 +1045,7 @@ def test_level_intersections_by_newton_on_the_cell_interpolant():
     equations hold: Newton on the pair finds the point to rounding, against fsolve; a box
     that excludes it gives NaN."""
     from scipy.optimize import fsolve
-    from hullprod_wb.brep.cell_interpolant import level_intersections, monomial_matrix
+    from hullprod_wb.brep.cubature.cell_interpolant import level_intersections, monomial_matrix
     deg = 9
     Minv = np.linalg.inv(monomial_matrix(deg))
     # K = y - 0.1 - 0.2 x^2 + 0.05 x y^3, H = x + 0.3 y + 0.2 y^2 in local coordinates
@@ -1075,7 +1075,7 @@ def test_interpolant_range_bounds_and_extremum_search():
     """Bernstein bounds of a cell's interpolant enclose its values on the cell; the extremum
     search finds an interior maximum (Newton from the grid's best point) and a corner
     minimum to rounding."""
-    from hullprod_wb.brep.cell_interpolant import interpolant_extremum, interpolant_range, monomial_matrix
+    from hullprod_wb.brep.cubature.cell_interpolant import interpolant_extremum, interpolant_range, monomial_matrix
     deg = 9
     Minv = np.linalg.inv(monomial_matrix(deg))
     # K = 0.0009 - (x - 0.31)^2 - (y + 0.17)^2 + 0.05 x^3 y in local coordinates
@@ -1104,8 +1104,8 @@ def test_grid_evaluated_cells_give_the_pointwise_values(fc):
     """A trimmed B-spline face has cells between constant bounds, evaluated as tensor grids
     (FaceField.grid), and cells along the trim curve, point by point: the cubature and the
     fixed area rule give the values of the same field evaluated point by point everywhere."""
-    from hullprod_wb.brep.face_field import FaceField
-    from hullprod_wb.brep.patches import Patches
+    from hullprod_wb.brep.geometry.face_field import FaceField
+    from hullprod_wb.brep.cubature.patches import Patches
     from hullprod_wb.brep.cubature import patch_area, tensor_cells
     Part, V = fc.Part, fc.V
     poles = [[V(3 * i, 2 * j, 0.3 * math.sin(i + 2 * j)) for j in range(5)] for i in range(5)]

@@ -3,7 +3,7 @@
 The Preferences page (hullprod_wb.gui.preferences) edits the same group:
 ``User parameter:BaseApp/Preferences/Mod/HullProd``.
 """
-from ..brep.budget import DEFAULT_QUADRATURE
+from ..brep.validity.budget import DEFAULT_QUADRATURE
 from ..core.constants import DEFAULT_HF, DEFAULT_KF
 
 PARAM_PATH = "User parameter:BaseApp/Preferences/Mod/HullProd"

@@ -9,7 +9,7 @@ default (a fresh interpreter per worker; 'forkserver' and 'fork' also work with 
 on Linux; 'fork' is used only from a process with no thread besides its own, since a
 child of a process whose OpenCascade has started threads can wait forever, and 'spawn'
 is used instead elsewhere). Each worker reads its BRep files in reading processes of its
-own (brep.reader_process), so a file that ends OpenCascade's reader gives an error row. At most 2 x workers cases are in
+own (brep.reading.reader_process), so a file that ends OpenCascade's reader gives an error row. At most 2 x workers cases are in
 flight; a worker that dies (a crash in the geometry kernel) breaks the pool, and the
 cases then in flight are rerun one at a time in a fresh single-worker pool, so the
 culprit is recorded as an error and the others complete.
@@ -80,7 +80,7 @@ def worker_environ():
 
 
 def _pool(workers, start_method):
-    from ..brep.face_pool import fork_is_clean
+    from ..core.processes import fork_is_clean
     if start_method == "fork" and not fork_is_clean():
         start_method = "spawn"
     pin_package_path()

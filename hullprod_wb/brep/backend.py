@@ -27,22 +27,22 @@ from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..freecad_env import set_reported_versions
-from .budget import (BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, grown_budgets,
+from .validity.budget import (BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, grown_budgets,
                      quadrature_options)
 from .cubature import GROUPS
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_assessment import assess_face
-from .face_field import FaceField
-from .face_pool import map_faces, resolve_jobs
+from .geometry.face_field import FaceField
+from ..core.processes import map_faces, resolve_jobs
 from .face_result import FaceAssessment
-from .face_setup import set_up_or_none, set_up_until
-from .left_out import LeftOutFace, evaluated_faces, left_out_face, mark_left_out
-from .loading import BRepInput, load_brep
-from .metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
-from .occ_records import patch_count
-from .provenance import occ_face_area, shape_boxes, shape_provenance
-from .record_reader import ReadInChild
+from .face_setup import FaceSetup, set_up_or_none, set_up_until
+from .validity.left_out import LeftOutFace, evaluated_faces, left_out_face, mark_left_out
+from .reading.loading import BRepInput, load_brep
+from .validity.metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
+from .reading.occ_records import patch_count
+from .reading.provenance import occ_face_area, shape_boxes, shape_provenance
+from .reading.record_reader import ReadInChild
 from .recorded_shape import RecordedShape
 
 
@@ -54,7 +54,7 @@ class BrepRun:
     loaded BRepInput (LoadedRun); opts: the quadrature options (budget.quadrature_options,
     with audit); progress(fraction, message); started: perf_counter() at the start; the
     caller's with_fields, display_deflection, cross_checks and jobs. The stages add: n_jobs
-    (face_pool.resolve_jobs), cost (each face's patch count), setups (each face's FaceSetup
+    (processes.resolve_jobs), cost (each face's patch count), setups (each face's FaceSetup
     made here, or None), size (the bounding-box diagonal), occ_areas (OpenCascade's face
     areas where known here), ref (the reference length), thresholds, deflection (of the
     display tessellation; None without fields), samples (display.sample_faces), weights
@@ -188,7 +188,7 @@ class BrepRun:
             return assess_face(number, face, self.thresholds, self.ref.value, self.opts, sub, self.in_groups,
                                self.group_jobs, self.cross_checks, self.setups[i], self.face_budgets[i]).detach()
         except Exception as exc:  # a face OpenCascade or its data cannot give: left out, recorded
-            return left_out_face(number, face, exc, self.setups[i])
+            return left_out_face(number, face, exc, self.setups[i], FaceSetup)
 
     def face_progress(self, i, number):
         """progress(fraction, message) inside face i (its number): its weight's share of the
@@ -420,7 +420,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     bounding-box diagonal; the automatic L_ref always comes from the nodes of a tessellation
     at 2e-2 of it, display.SAMPLE_DEFLECTION); cross_checks: derivatives
     against OpenCascade and the independent area per face; jobs: worker processes for the
-    faces (None: automatic, see face_pool.resolve_jobs; the values do not depend on it).
+    faces (None: automatic, see processes.resolve_jobs; the values do not depend on it).
     """
     try:
         started = time.perf_counter()

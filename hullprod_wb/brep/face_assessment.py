@@ -3,13 +3,13 @@ of the face with the neighbourhoods of its degenerate points excluded, each neig
 quadrant through its graded map, grading where a refinement stalled at a knot-grid node,
 the nested-neighbourhood audit of the degenerate set, and the cross-checks."""
 from ..core.progress import null_progress
-from . import singular
-from .cross_checks import face_cross_checks
+from .validity import singular
+from .validity.cross_checks import face_cross_checks
 from .cubature import QUANTITIES, integrate, patch_groups
-from .face_pool import map_forked
+from ..core.processes import map_forked
 from .face_result import CombinedQuadrature, FaceAssessment, final_result
 from .face_setup import FaceSetup
-from .trimmed_domain import TrimmedDomain
+from .geometry.trimmed_domain import TrimmedDomain
 
 #: Tree depth and class-line halvings of a graded neighbourhood quadrant.
 QUADRANT_MAX_DEPTH = 5
@@ -23,7 +23,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
     separately through a graded map (singular.GradedQuadrantField), then audited. With
     groups, a face of many patches is integrated in patch groups (cubature.patch_groups),
-    in group_jobs processes (face_pool.map_forked; the values do not depend on it), and
+    in group_jobs processes (processes.map_forked; the values do not depend on it), and
     this process computes the area cross-check while it waits for the others (unless the
     setup has it). cross_checks: attach face_cross_checks. face: a Part.Face, or a
     recorded_shape.FaceRecord (the same field and domain from its records, and OpenCascade's

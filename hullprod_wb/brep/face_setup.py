@@ -7,17 +7,13 @@ import time
 import numpy as np
 
 from ..core.errors import InputError
-from . import singular
-from .cross_checks import area_rule
+from .validity import singular
+from .validity.cross_checks import area_rule
 from .cubature import NodePrefetch, patch_groups
-from .face_field import FaceField
-from .patches import Patches
+from .geometry.face_field import FaceField
+from .cubature.patches import Patches
 from .recorded_shape import FaceRecord
-from .trimmed_domain import TrimmedDomain, polygon_domain
-
-
-class EmptyDomain(Exception):
-    """A face whose trimmed domain has no extent in u or v: it carries no area."""
+from .geometry.trimmed_domain import EmptyDomain, TrimmedDomain, polygon_domain
 
 
 class _NeedsPartFace(Exception):

@@ -9,9 +9,9 @@ surface type, a p-curve the records do not describe) and a face whose trimmed do
 needs OpenCascade itself (a p-curve whose conversion fails its check) are rebuilt from
 that data in the process that integrates them (part_face); no file is read here.
 """
-from .face_field import FaceField
-from .surface_eval import SurfaceEvaluator
-from .trimmed_domain import TrimmedDomain
+from .geometry.face_field import FaceField
+from .geometry.surface_eval import SurfaceEvaluator
+from .geometry.trimmed_domain import TrimmedDomain
 
 
 class FaceRecord:
@@ -64,7 +64,7 @@ class RecordedShape:
         """The faces the reading process sent as data under key ("part_faces" in the first
         frame, "described_faces" in the second), as Part.Face objects, rebuilt once."""
         if key not in self._part_faces:
-            from .loading import faces_from_bytes
+            from .reading.loading import faces_from_bytes
             frame = self.reader.frame(0 if key == "part_faces" else 1)
             self._part_faces[key] = faces_from_bytes(frame[key])
         return self._part_faces[key]
@@ -88,7 +88,7 @@ class RecordedShape:
             frame = self.reader.frame(2)
             self.reader.close()
             if with_fields and "display" not in frame:
-                from .record_reader import ReadInChild
+                from .reading.record_reader import ReadInChild
                 again = ReadInChild(self.path, self.selection, True, display_deflection)
                 try:
                     frame = again.frame(2)

@@ -7,7 +7,7 @@ points), int |K| J, int max(K,0) J, int max(-K,0) J over the valid points, and t
 curvature-class areas of eq:curvature_classes.
 
 The domain is cut into boundary-fitted patches mapped from the unit square
-(hullprod_wb.brep.patches: strips lo(u) <= v <= hi(u) between breakpoints, knot lines and the
+(patches: strips lo(u) <= v <= hi(u) between breakpoints, knot lines and the
 trim curves' crossings of the knot lines), on which the integrands are smooth, so that
 Gauss-Legendre converges fast on the exact trimmed region. One concept a module:
 
@@ -21,7 +21,13 @@ Gauss-Legendre converges fast on the exact trimmed region. One concept a module:
 - cuts: where lines are cut in sigma (edge crossings, tangencies, corners of the flat
   region, islands);
 - pieces: the piece bookkeeping that lines and cuts share;
-- fixed_rule: fixed tensor rules on the patches (independent checks) and patch groups.
+- fixed_rule: fixed tensor rules on the patches (independent checks) and patch groups;
+- patches: the boundary-fitted patches of a domain and their maps from the unit square;
+- gauss_rules, cell_interpolant, roots: Gauss-Legendre and Gauss-Kronrod rules, tensor
+  Legendre interpolants over mixed cells, vectorised bracketed root finding.
+
+Self-contained: imports only core and itself (a domain is anything with the attributes of
+patches.DOMAIN_ATTRIBUTES, in practice geometry.trimmed_domain.TrimmedDomain).
 """
 from .driver import integrate
 from .cells import NodePrefetch, cell_nodes, tensor_cells, values_at_nodes

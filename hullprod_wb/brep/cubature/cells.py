@@ -6,15 +6,22 @@ acceptance of cells against an error budget."""
 import numpy as np
 
 from ...core.errors import InputError
-from ..gauss_rules import gauss_nodes
-from ..nurbs import grid_points
-from ..patches import Patches
+from .gauss_rules import gauss_nodes
+from .patches import Patches
 from .settings import ACCEPT_FRACTION, AREA, CLASS_AREAS, MIN_INITIAL_CELLS, PREFETCH_CELLS
 
 
 #: The arrays of a CellSet: the cells' boxes, then those known once evaluated or accepted.
 _BOXES = ("pid", "s0", "s1", "t0", "t1")
 _ARRAYS = _BOXES + ("Q", "err_e", "mixed", "peak", "pmeas", "sJ", "sK", "sH", "sreg", "row", "depth", "err")
+
+
+def grid_points(u, v):
+    """The points of the tensor grids u (n, a) x v (n, b), (u[c, i], v[c, j]), as two flat
+    arrays (n a b,) in [c, i, j] order."""
+    u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+    shape = (u.shape[0], u.shape[1], v.shape[1])
+    return np.broadcast_to(u[:, :, None], shape).ravel(), np.broadcast_to(v[:, None, :], shape).ravel()
 
 
 class CellSet:

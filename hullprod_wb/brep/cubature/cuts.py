@@ -10,9 +10,9 @@ interpolant's cell meets (where the lines miss a part that the interpolant's Ber
 bounds allow, the extremum of K is searched)."""
 import numpy as np
 
-from ..cell_interpolant import (SegmentField, _local, horner, interpolant_extremum, interpolant_range,
+from .cell_interpolant import (SegmentField, _local, horner, interpolant_extremum, interpolant_range,
                                 level_intersections, tangency_points, window_min_of)
-from ..roots import solve_bracketed
+from .roots import solve_bracketed
 from .cells import _row_sums
 from .pieces import _inside_pieces, _parabolic_min
 from .settings import (CLASS_ELLIPTIC, CLASS_FLAT, CLASS_SADDLE, CLASS_SINGLE, INSIDE, LEVEL_H, LEVEL_K, LEVEL_ROW,

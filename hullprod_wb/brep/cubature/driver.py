@@ -32,10 +32,9 @@ import numpy as np
 
 from ...core.errors import InputError
 from ...core.thresholds import check_positive, classify
-from ..cell_interpolant import grid_matrices
-from ..gauss_rules import embedded_weights, gauss_nodes
-from ..patches import Patches
-from ..trimmed_domain import TrimmedDomain
+from .cell_interpolant import grid_matrices
+from .gauss_rules import embedded_weights, gauss_nodes
+from .patches import Patches, check_domain
 from .cells import (CellSet, _Field, _children, _greedy_accept, _patch_cells, _share_area_error, cell_nodes,
                     tensor_cells, values_at_nodes)
 from .result import QuadratureResult
@@ -413,8 +412,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     result says whether the budget stopped it (budget_spent).
     Returns a QuadratureResult.
     """
-    if not isinstance(domain, TrimmedDomain):
-        raise InputError("integrate() needs a TrimmedDomain, got %s" % type(domain).__name__)
+    check_domain("integrate", domain)
     tau_H = check_positive("tau_H", tau_H)
     tau_K = check_positive("tau_K", tau_K)
     check_positive("rtol", rtol)

@@ -3,7 +3,7 @@
 The class indicators are discontinuous, and |K|, max(+-K, 0) have kinks on K = 0; Gauss sums
 across such curves converge only like the cell size (squared). For a parent cell with a
 mixed child the K integrals and class areas are line integrals over the parent, taken on the
-tensor interpolant of J, K, H through its children's samples (hullprod_wb.brep.cell_interpolant)
+tensor interpolant of J, K, H through its children's samples (hullprod_wb.brep.cubature.cell_interpolant)
 when the interpolant's error, measured at the parent's own nodes and propagated to each
 integral, is within INTERPOLANT_SHARE of the cell's budget (it then adds to the cell's
 error); a cell whose interpolant is not yet that accurate is split instead, and at the last
@@ -40,10 +40,10 @@ inside a cell on the field between its lines, are not resolved.
 import numpy as np
 
 from ...core.thresholds import classify
-from ..cell_interpolant import SegmentField, cell_values, fit_interpolants
-from ..gauss_rules import WK, XK, kronrod_error, legendre_vander
-from ..patches import cluster_map
-from ..roots import solve_bracketed
+from .cell_interpolant import SegmentField, cell_values, fit_interpolants
+from .gauss_rules import WK, XK, kronrod_error, legendre_vander
+from .patches import cluster_map
+from .roots import solve_bracketed
 from .cells import _greedy_accept, _row_sums
 from .pieces import (Interpolants, LineSamples, LineValues, MixedCells, Pieces, _count_and_pairs, _halve_pieces,
                      _parabolic_min, _segments, _split_pieces)

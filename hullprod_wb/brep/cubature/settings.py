@@ -2,7 +2,7 @@
 (hullprod_wb.brep.cubature)."""
 import numpy as np
 
-from ..gauss_rules import XK, piece_weights
+from .gauss_rules import XK, piece_weights
 
 
 #: Names of the integrated quantities, in the order of the value arrays.

@@ -15,11 +15,12 @@ parameterisation). The face's orientation enters only through ``orientation_sign
 """
 import numpy as np
 
-from ..core.errors import InputError
+from ...core.errors import InputError
 from . import differential
 from .analytic_surfaces import analytic_from_surface
-from .nurbs import NurbsSurfaceData, _as_points, grid_points, knot_breaks
-from .occ_records import orientation_sign_of, unwrap_surface
+from ..cubature.cells import grid_points
+from .nurbs import NurbsSurfaceData, _as_points, knot_breaks
+from ..reading.occ_records import orientation_sign_of, unwrap_surface
 
 
 def face_surface(face):

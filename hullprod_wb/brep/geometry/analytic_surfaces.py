@@ -17,7 +17,7 @@ left-handed frames of mirrored geometry are reproduced.
 """
 import numpy as np
 
-from ..core.errors import InputError
+from ...core.errors import InputError
 from .nurbs import _as_points
 
 

@@ -25,7 +25,7 @@ Nothing here imports numpy: the reading side never loads it.
 import os
 import time
 
-from ..freecad_env import import_freecad, versions
+from ...freecad_env import import_freecad, versions
 from .loading import faces_to_bytes, load_brep
 from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
 from .occ_records import CROSS_CHECK_POINTS, DISPLAY_DEFLECTION, display_mesh, face_record, occ_reference, \

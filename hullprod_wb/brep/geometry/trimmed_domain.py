@@ -25,10 +25,10 @@ straight segments through the projected points of its 3-D edges.
 """
 import numpy as np
 
-from ..core.errors import InputError
-from .occ_records import edge_vertices, face_pcurves
+from ...core.errors import InputError
+from ..reading.occ_records import edge_vertices, face_pcurves
 from .pcurves import ConicArc2D, NurbsCurve2D, curve_from_geom2d, curve_from_record
-from .roots import solve_bracketed
+from ..cubature.roots import solve_bracketed
 from .surface_eval import SurfaceEvaluator
 from .trim_repair import close_gaps, plane_frame, plane_pcurve
 
@@ -38,6 +38,10 @@ SNAP_RTOL = 1e-11
 CLOSURE_RTOL = 1e-5
 #: Deflection of the 3-D edge polygons of a fallback domain, relative to the face's size.
 POLYGON_DEFLECTION = 1e-6
+
+
+class EmptyDomain(Exception):
+    """A face whose trimmed domain has no extent in u or v: it carries no area."""
 
 
 class OpenTrimLoops(InputError):

@@ -1,8 +1,8 @@
 """The work and error budgets of a BRep assessment: the quadrature settings and protocols,
 each face's share of the field points, the faces refined again where the shape's error sits,
 and whether a face's two integrations agree within their estimates."""
-from ..core.errors import InputError
-from .cubature import QUANTITIES
+from ...core.errors import InputError
+from ..cubature import QUANTITIES
 from .metric_rules import global_tolerance
 
 #: Quadrature settings; all are options. protocol "budget": every face refined by its error

@@ -4,10 +4,10 @@ raises) is NOT EVALUATED in its record, with the reason and an estimate of its a
 hull's metrics are formed over the evaluated faces and say which faces they leave out and
 what share of the area those carry (paper section 4.3: validity travels with the number).
 """
-from ..core.errors import InputError
-from ..core.validity import ESTABLISHED, Status
+from ...core.errors import InputError
+from ...core.validity import ESTABLISHED, Status
 from .cross_checks import area_rule
-from .face_setup import EmptyDomain, FaceSetup
+from ..geometry.trimmed_domain import EmptyDomain
 
 #: Tessellation deflection of a left-out face's polygon area estimate, relative to its size.
 POLYGON_ESTIMATE_DEFLECTION = 1e-3
@@ -50,9 +50,10 @@ def _polygon_area(face):
     return total if tris else None
 
 
-def left_out_face(number, face, exc, setup=None):
+def left_out_face(number, face, exc, setup=None, set_up=None):
     """LeftOutFace of a face whose assessment raised exc: its area from our own order-8
-    tensor Gauss-Legendre rule over its trimmed domain when the face can be set up, else
+    tensor Gauss-Legendre rule over its trimmed domain when the face can be set up (setup, or
+    set_up(face): the face's FaceSetup), else
     from the triangles of OpenCascade's tessellation (a Part face), else unknown. A face
     whose trimmed domain has no extent has area 0 exactly."""
     surface_type = getattr(face, "surface_type", None)
@@ -66,13 +67,13 @@ def left_out_face(number, face, exc, setup=None):
                            0.0, "trimmed domain without extent", surface_type or "no surface")
     reason = _one_line(exc)
     try:
-        s = setup or FaceSetup(face)
+        s = setup or set_up(face)
         area = float(area_rule(s.ff, s.domain, s.gu, s.gv)[0])
         if area == area and abs(area) != float("inf"):
             return LeftOutFace(number, reason, area, "tensor Gauss-Legendre order 8 on its trimmed domain",
                                surface_type)
     except EmptyDomain as again:
-        return left_out_face(number, face, again)
+        return left_out_face(number, face, again, set_up=set_up)
     except Exception:  # the set-up itself fails: estimate from a tessellation
         pass
     if hasattr(face, "tessellate"):

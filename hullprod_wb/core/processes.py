@@ -27,7 +27,7 @@ import pickle
 import sys
 import threading
 
-from ..core.errors import InputError
+from .errors import InputError
 
 #: Environment variable that sets the automatic number of worker processes (batch workers
 #: set it to 1: they already run one case per CPU).

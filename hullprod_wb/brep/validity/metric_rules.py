@@ -8,10 +8,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
-from ..core.signature import signature_values
-from ..core.validity import MetricValidity, Status
-from .cubature.settings import CLASS_AREAS, QUANTITIES, ZERO_SCALE
+from ...core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
+from ...core.signature import signature_values
+from ...core.validity import MetricValidity, Status
+from ..cubature.settings import CLASS_AREAS, QUANTITIES, ZERO_SCALE
 
 #: The class-area quantities (flat, single, elliptic, saddle).
 CLASS_QUANTITIES = QUANTITIES[CLASS_AREAS]

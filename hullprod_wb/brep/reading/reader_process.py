@@ -5,7 +5,7 @@ parallel mesher starts a thread pool that a process forked afterwards inherits i
 it cannot use (the child then waits forever). So every read of a user's file runs in a
 child (ReaderProcess) started from a clean process:
 
-- forked, when this process has a single thread (face_pool.single_threaded: nothing in it
+- forked, when this process has a single thread (processes.single_threaded: nothing in it
   has meshed, no BLAS or GUI threads run), which is the command line's case and costs
   about a millisecond;
 - else a fresh interpreter (subprocess, the same Python and package), which is what a
@@ -25,7 +25,7 @@ import struct
 import sys
 import time
 
-from ..core.errors import InputError, ReaderDied
+from ...core.errors import InputError, ReaderDied
 
 #: Key of a frame that only tells the parent what the child does next.
 STAGE = "stage"
@@ -135,7 +135,7 @@ class ReaderProcess:
     the child."""
 
     def __init__(self, path, task, args):
-        from .face_pool import fork_is_clean
+        from ...core.processes import fork_is_clean
         self.path, self.stage = path, None
         self.deadline = time.monotonic() + read_time_limit(path)
         self.owner = os.getpid()
@@ -160,7 +160,7 @@ class ReaderProcess:
                 self._pid = pid
             else:
                 code = ("import sys; sys.path.insert(0, %r); "
-                        "from hullprod_wb.brep.reader_process import child_main; child_main()" % PACKAGE_ROOT)
+                        "from hullprod_wb.brep.reading.reader_process import child_main; child_main()" % PACKAGE_ROOT)
                 import subprocess
                 payload = pickle.dumps((task, args), pickle.HIGHEST_PROTOCOL).hex()
                 safe_path = ["-P"] if sys.version_info >= (3, 11) else []  # no current directory first
@@ -229,7 +229,7 @@ class ReaderProcess:
 
     def close(self):
         """Stop (if still running) and reap the child."""
-        from .face_pool import reap
+        from ...core.processes import reap
         if self._fh is not None:
             self._fh.close()
             self._fh = None
