@@ -219,7 +219,7 @@ def test_the_reading_side_does_not_load_numpy(tmp_path):
         "sys.path.insert(0, %r)\n"
         "from hullprod_wb.freecad_env import import_freecad\n"
         "import_freecad()\n"
-        "from hullprod_wb.brep import record_reader\n"
+        "from hullprod_wb.brep.reading import record_reader\n"
         "from hullprod_wb.brep.reading.loading import load_brep\n"
         "frames = list(record_reader._frames(load_brep(%r), True, None, 0.0))\n"
         "assert len(frames) == 3 and 'faces' in frames[0], frames[0]\n"
@@ -371,7 +371,7 @@ def test_the_command_starts_the_reading_process_before_parsing_its_arguments(tmp
 
     monkeypatch.undo()
     # the command in a fresh process (FreeCAD not loaded), counting the reading processes
-    driver = ("import sys; from hullprod_wb import cli; from hullprod_wb.brep import record_reader as p\n"
+    driver = ("import sys; from hullprod_wb import cli; from hullprod_wb.brep.reading import record_reader as p\n"
               "init = p.ReadInChild.__init__\n"
               "def counted(self, *a, **k):\n"
               "    sys.stderr.write('reading process for %s\\n' % a[0]); init(self, *a, **k)\n"

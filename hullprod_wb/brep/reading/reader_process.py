@@ -35,7 +35,7 @@ ERROR, INTERNAL = "error", "internal"
 #: Readers' names by file extension, for the message of a child that died while reading.
 READER_NAMES = {".igs": "IGES", ".iges": "IGES", ".stp": "STEP", ".step": "STEP", ".brep": "BRep"}
 #: The folder that holds this hullprod_wb package (the fresh interpreter imports it from there).
-PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 
 
 def reader_name(path):
