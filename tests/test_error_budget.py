@@ -226,14 +226,14 @@ def test_threshold_band_is_the_area_near_the_thresholds():
 
 
 def test_class_area_errors_of_a_cell_without_area_stay_bounded():
-    from hullprod_wb.brep.cubature.cells import _share_area_error
+    from hullprod_wb.brep.cubature.cells import share_area_error
     # a sliver cell whose area is zero or negative in rounding, with class areas of 1e-16
     Q = np.zeros((2, len(QUANTITIES)))
     Q[:, 0] = [0.0, -1e-18]
     Q[:, 8] = 1e-16
     err = np.zeros_like(Q)
     err[:, 0] = 1e-12
-    out = _share_area_error(err, Q)
+    out = share_area_error(err, Q)
     assert np.all(np.isfinite(out)) and np.all(out[:, 5:] <= 1e-12)
 
 

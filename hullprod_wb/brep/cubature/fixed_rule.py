@@ -7,7 +7,7 @@ from ...core.errors import InputError
 from .gauss_rules import embedded_weights, gauss_nodes
 from .patches import Patches, check_domain
 from .cells import cell_nodes, tensor_cells, values_at_nodes
-from .driver import _Integrator
+from .driver import Integration
 from .settings import GROUPS, GROUP_MIN_PATCHES, QUANTITIES
 
 
@@ -20,7 +20,7 @@ def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
     check_domain("patch_rule", domain)
     if int(order) < 3:
         raise InputError("patch_rule() needs order >= 3, got %r" % (order,))
-    it = _Integrator(domain, field, 1.0, 1.0, int(order), 1.0, 0, u_breaks, v_breaks, None)
+    it = Integration(domain, field, 1.0, 1.0, int(order), 1.0, 0, u_breaks, v_breaks, None)
     values = {q: float(x) for q, x in zip(QUANTITIES, it.active.Q.sum(0))}
     bounds = {q: float(x) for q, x in zip(QUANTITIES, it.active.err_e.sum(0))}
     return values, bounds

@@ -34,7 +34,7 @@ CHUNK = 8192
 GRID_CHUNK = 1024
 
 
-def _as_points(u, v):
+def as_points(u, v):
     """Broadcast parameters to two flat float arrays of equal length n."""
     try:
         uu, vv = np.broadcast_arrays(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
@@ -291,7 +291,7 @@ class NurbsSurfaceData:
         """
         if order not in (0, 1, 2):
             raise InputError("derivative order must be 0, 1 or 2, got %r" % (order,))
-        u, v = _as_points(u, v)
+        u, v = as_points(u, v)
         u = self._wrap(u, self.uperiod, self.urange)
         v = self._wrap(v, self.vperiod, self.vrange)
         n = u.shape[0]

@@ -19,7 +19,7 @@ from ...core.errors import InputError
 from . import differential
 from .analytic_surfaces import analytic_from_surface
 from ..cubature.cells import grid_points
-from .nurbs import NurbsSurfaceData, _as_points, knot_breaks
+from .nurbs import NurbsSurfaceData, as_points, knot_breaks
 from ..reading.occ_records import orientation_sign_of, unwrap_surface
 
 
@@ -49,7 +49,7 @@ class _OccBackend:
         self.surface = surface
 
     def evaluate(self, u, v, order=2):
-        u, v = _as_points(u, v)
+        u, v = as_points(u, v)
         n = u.shape[0]
         orders = self._ORDERS[:(0, 2, 5)[order]]
         out = np.empty((1 + len(orders), n, 3))
