@@ -145,7 +145,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
     shape = RecordedShape(ReadInChild(mixed, None, False))
     kinds = [(f.surface_type, f.as_data) for _, f in shape.faces]
     assert kinds == [("BSplineSurface", False), ("Cylinder", True), ("Plane", True)]
-    assert "Cylinder surface" in shape.faces[1][1].rec["reason"]
+    assert "Cylinder surface" in shape.faces[1][1].rec.reason
     rebuilt = shape.faces[1][1].part_face()
     assert type(rebuilt.Surface).__name__ == "Cylinder" and rebuilt.Area == pytest.approx(math.pi)
     shape.close()
@@ -222,9 +222,9 @@ def test_the_reading_side_does_not_load_numpy(tmp_path):
         "from hullprod_wb.brep.reading import record_reader\n"
         "from hullprod_wb.brep.reading.loading import load_brep\n"
         "frames = list(record_reader._frames(load_brep(%r), True, None, 0.0))\n"
-        "assert len(frames) == 3 and 'faces' in frames[0], frames[0]\n"
+        "assert len(frames) == 3 and frames[0][record_reader.FRAME].faces, frames[0]\n"
         "assert 'numpy' not in sys.modules, sorted(m for m in sys.modules if 'numpy' in m)[:5]\n"
-        "print('ok', len(frames[0]['faces']))\n" % (ROOT, path))
+        "print('ok', len(frames[0][record_reader.FRAME].faces))\n" % (ROOT, path))
     p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr[-2000:]
     assert p.stdout.split() == ["ok", "1"]
@@ -275,10 +275,10 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     made_in_a_child(lambda: Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()])).exportStep(path)
 
     reader = ReadInChild(path, None, False)
-    first = reader.frame(0)
-    assert all("area" not in rec for rec in first["faces"])  # OpenCascade's areas come last
-    reader.frame(1)
-    assert reader.ready(0) and reader.ready(1)
+    first = reader.faces_frame()
+    assert all(not hasattr(rec, "area") for rec in first.faces)  # OpenCascade's areas come last
+    reader.lref_frame()
+    assert reader.lref_ready()
     reader.close()
 
     made = []

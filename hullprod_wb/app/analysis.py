@@ -32,9 +32,9 @@ STATUS_NOT_COMPUTED = "not computed"
 STATUS_OK = "ok"
 
 #: The backend's defaults of the quadrature settings added after the first documents were saved.
-QUADRATURE_DEFAULTS = {"QuadratureProtocol": DEFAULT_QUADRATURE["protocol"],
-                       "QuadraturePointBudget": DEFAULT_QUADRATURE["point_budget"],
-                       "QuadratureDepthLimit": DEFAULT_QUADRATURE["depth_limit"]}
+QUADRATURE_DEFAULTS = {"QuadratureProtocol": DEFAULT_QUADRATURE.protocol,
+                       "QuadraturePointBudget": DEFAULT_QUADRATURE.point_budget,
+                       "QuadratureDepthLimit": DEFAULT_QUADRATURE.depth_limit}
 
 #: (type, name, group, tooltip, output). Output properties are written by execute() only.
 PROPERTIES = [

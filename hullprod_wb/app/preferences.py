@@ -21,9 +21,9 @@ DEFAULTS = {
     "QuadratureOrder": ("Int", DEFAULT_ORDER),
     "QuadratureRtol": ("Float", DEFAULT_RTOL),
     "QuadratureMaxDepth": ("Int", DEFAULT_MAX_DEPTH),
-    "QuadratureProtocol": ("String", DEFAULT_QUADRATURE["protocol"]),
-    "QuadraturePointBudget": ("Int", DEFAULT_QUADRATURE["point_budget"]),
-    "QuadratureDepthLimit": ("Int", DEFAULT_QUADRATURE["depth_limit"]),
+    "QuadratureProtocol": ("String", DEFAULT_QUADRATURE.protocol),
+    "QuadraturePointBudget": ("Int", DEFAULT_QUADRATURE.point_budget),
+    "QuadratureDepthLimit": ("Int", DEFAULT_QUADRATURE.depth_limit),
     "DefaultColorMap": ("String", "Developability"),
     "HideSourceOnAnalyze": ("Bool", True),
 }

@@ -27,8 +27,8 @@ from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..freecad_env import set_reported_versions
-from .validity.budget import (BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, grown_budgets,
-                     quadrature_options)
+from .validity.budget import (BUDGET_ROUNDS, QuadratureOptions, disagreement, face_point_budgets, faces_to_refine,
+                              grown_budgets, quadrature_options)
 from .cubature import GROUPS
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
@@ -65,7 +65,7 @@ class BrepRun:
     """
 
     shape: object
-    opts: dict
+    opts: QuadratureOptions
     progress: object
     started: float
     with_fields: bool
@@ -136,7 +136,7 @@ class BrepRun:
             if ready is not None:
                 for s in self.setups:
                     if s is not None:
-                        s.prefetch_until(ready, self.opts["order"], self.in_groups, self.opts["max_depth"])
+                        s.prefetch_until(ready, self.opts.order, self.in_groups, self.opts.max_depth)
         else:
             self.setups = set_up_until(ready, faces, self.cost, self.cross_checks)
 
@@ -212,13 +212,13 @@ class BrepRun:
         point budgets; a finer integration records where it and the earlier one disagree
         beyond their error estimates (budget.disagreement)."""
         results, budgets, faces = self.results, self.face_budgets, self.shape.faces
-        for _ in range(BUDGET_ROUNDS if self.opts["protocol"] != "paper" else 0):
+        for _ in range(BUDGET_ROUNDS if not self.opts.paper else 0):
             ev = [i for i, r in enumerate(results) if not isinstance(r, LeftOutFace)]
-            redo = [ev[k] for k in faces_to_refine([results[i] for i in ev], self.opts["rtol"])]
+            redo = [ev[k] for k in faces_to_refine([results[i] for i in ev], self.opts.rtol)]
             if not redo:
                 break
             grown = grown_budgets([results[i].quad for i in redo], [budgets[i] for i in redo],
-                                  self.opts["point_budget"], sum(results[i].quad.n_points for i in ev))
+                                  self.opts.point_budget, sum(results[i].quad.n_points for i in ev))
             for i, b in zip(redo, grown):
                 budgets[i] = b
             self.progress(0.95, "refining %d face(s) that carry the shape's error: %s"
@@ -294,8 +294,7 @@ class BrepRun:
         self.progress(1.0, "done: %d quadrature points" % points)
         return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                           validity=validity, fields=fields, provenance=self.provenance,
-                          options={**opts, "recheck_depth": opts["max_depth"] + 1 if opts["protocol"] == "paper"
-                                   else None,
+                          options={**opts.record(), "recheck_depth": opts.recheck_depth,
                                    "jobs": self.n_jobs,
                                    "group_jobs": min(self.group_jobs, max(f.quad.n_main for f in results)),
                                    "display_deflection": self.deflection,
@@ -359,9 +358,9 @@ class RecordedRun(BrepRun):
         provenance, with OpenCascade's values, and the display samples on its meshes."""
         with self.timed("provenance_s"):
             late = self.shape.late(self.with_fields, self.display_deflection)
-            self.provenance.update(late["provenance"])
+            self.provenance.update(late.provenance)
             if self.with_fields:
-                self.samples = self.display_samples(late["display"])
+                self.samples = self.display_samples(late.display)
 
 
 @dataclass
@@ -424,8 +423,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     """
     try:
         started = time.perf_counter()
-        opts = quadrature_options(order, rtol, max_depth, protocol, depth_limit, point_budget)
-        opts["audit"] = bool(audit)
+        opts = quadrature_options(order, rtol, max_depth, protocol, depth_limit, point_budget, audit)
         run = BrepRun.read(source, faces, opts, progress or null_progress, started, with_fields=with_fields,
                            display_deflection=display_deflection, cross_checks=cross_checks, jobs=jobs)
         with run.timed("display_samples_s"):

@@ -30,7 +30,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     cross-check values). setup: its FaceSetup when already made."""
     s = setup or FaceSetup(face)
     quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, cross_checks, point_budget)
-    for _ in range(STALL_ROUNDS if opts.get("protocol") != "paper" and opts.get("audit", True) else 0):
+    for _ in range(STALL_ROUNDS if not opts.paper and opts.audit else 0):
         # a refinement that stalled at a knot-grid node: graded there and audited (VALID* or
         # SINGULAR), instead of ever smaller cells (paper section 4.3)
         pts = singular.points_from_refinement([final_result(p) for p in quad.parts[:quad.n_main]], s.domain,
@@ -40,11 +40,11 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
         quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, False, point_budget)
     ff, domain, deg, quads, gu, gv = s.ff, s.domain, s.deg, s.quads, s.gu, s.gv
     audits = []
-    if deg and opts.get("audit", True):
+    if deg and opts.audit:
         totals = dict(quad.values)
         for p in deg.audited_points:
             audits.append(singular.audit_point(ff, p, quads, totals, lref, thresholds.tau_H,
-                                               thresholds.tau_K, order=opts["order"]))
+                                               thresholds.tau_K, order=opts.order))
         for side in deg.sides:
             audits.append(singular.probe_side(ff, domain, side, s.u_breaks, s.v_breaks))
     f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
@@ -57,15 +57,15 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
 def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_check, point_budget):
     """CombinedQuadrature of a set-up face (FaceSetup s): its patch groups (in group_jobs
     processes when groups), then each neighbourhood quadrant through its graded map. With
-    the budget protocol (opts["protocol"] != "paper") the groups refine by their error down
-    to opts["depth_limit"] within point_budget points (split between the groups); with the
+    the budget protocol (not opts.paper) the groups refine by their error down
+    to opts.depth_limit within point_budget points (split between the groups); with the
     paper's, to max_depth with a recheck one level deeper (section 5.2)."""
     ff, domain, quads, gu, gv, main_field = s.ff, s.domain, s.quads, s.gu, s.gv, s.main_field
-    kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
+    kw = dict(order=opts.order, rtol=opts.rtol, max_depth=opts.max_depth, recheck=True)
     groups = patch_groups(s.patches.size) if groups else [None]
     mkw = dict(kw)
-    if opts.get("protocol") != "paper":
-        mkw.update(depth_limit=opts["depth_limit"],
+    if not opts.paper:
+        mkw.update(depth_limit=opts.depth_limit,
                    point_budget=None if point_budget is None else max(1, int(point_budget) // len(groups)))
     prefetch = s.prefetch if s.prefetch is not None and len(s.prefetch) == len(groups) else [None] * len(groups)
 
@@ -81,9 +81,9 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     # graded map makes its integrand smooth, so a shallow tree resolves it.
     main_values = {k: sum(final_result(p).values[k] for p in parts) for k in QUANTITIES}
     share = {k: abs(v) / (2.0 * max(len(quads), 1)) for k, v in main_values.items()}
-    qkw = dict(kw, max_depth=min(opts["max_depth"], QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
-    if opts.get("protocol") != "paper":  # refined by the error too, within a share of the face's points
-        qkw.update(depth_limit=opts["depth_limit"],
+    qkw = dict(kw, max_depth=min(opts.max_depth, QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
+    if not opts.paper:  # refined by the error too, within a share of the face's points
+        qkw.update(depth_limit=opts.depth_limit,
                    point_budget=None if point_budget is None else max(1, int(point_budget) // 2))
     for q in quads:
         parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,

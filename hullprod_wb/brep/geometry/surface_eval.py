@@ -134,15 +134,15 @@ class SurfaceEvaluator:
 
     @classmethod
     def from_record(cls, rec):
-        """Evaluator of a B-spline or Bezier face from occ_records.face_record's data
-        (no Part surface: surface is None), the same as for_face of that face."""
+        """Evaluator of a B-spline or Bezier face from its occ_records.FaceData (no Part
+        surface: surface is None), the same as for_face of that face."""
         self = cls.__new__(cls)
         self.surface = None
-        self.orientation_sign = int(rec["orientation_sign"])
-        self.parameter_range = tuple(float(x) for x in rec["parameter_range"])
-        self.nurbs = NurbsSurfaceData.from_record(rec["nurbs"])
+        self.orientation_sign = int(rec.orientation_sign)
+        self.parameter_range = tuple(float(x) for x in rec.parameter_range)
+        self.nurbs = NurbsSurfaceData.from_record(rec.nurbs)
         self.analytic = None
-        self.kind = rec["kind"]
+        self.kind = rec.kind
         self._backend = self.nurbs
         return self
 

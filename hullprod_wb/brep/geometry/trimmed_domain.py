@@ -189,19 +189,19 @@ class TrimmedDomain:
 
     @classmethod
     def from_record(cls, rec, evaluator):
-        """Domain of a face from occ_records.face_record's p-curves and edge vertices, the
+        """Domain of a face from the p-curves and edge vertices of its occ_records.FaceData, the
         same as from_face gives for that face (evaluator: its SurfaceEvaluator, for closing
         loop gaps); None when a p-curve's conversion fails its check (from_face then
         evaluates it through OpenCascade)."""
-        curves = [curve_from_record(r) for r in rec["pcurves"]]
+        curves = [curve_from_record(r) for r in rec.pcurves]
         if any(c is None for c in curves):
             return None
         try:
             domain = cls(curves)
         except OpenTrimLoops as exc:
-            segments, notes = close_gaps(evaluator, rec["end_vertices"], rec["vertices"], exc)
+            segments, notes = close_gaps(evaluator, rec.end_vertices, rec.vertices, exc)
             domain = cls(curves + segments, notes)
-        domain.face_parameter_range = tuple(rec["parameter_range"])
+        domain.face_parameter_range = tuple(rec.parameter_range)
         return domain
 
     # -- construction -------------------------------------------------------------------------
