@@ -14,7 +14,8 @@ def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
         return file_representation(source)  # and its structure checked
-    if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.reading.record_reader)
+    from .brep.reading.record_reader import ReadInChild
+    if isinstance(source, ReadInChild):  # a BRep file's reading process
         return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
         return "mesh"
@@ -76,9 +77,5 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         if hasattr(source, "close"):
             source.close()
         raise
-    result = assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
-                         progress=progress, **options)
-    from .core.file_checks import mark_fewer_faces
-    if mark_fewer_faces(result.validity, result.input or {}):
-        result.warnings.append(next(iter(result.validity.values())).reason.rsplit("; ", 1)[-1])
-    return result
+    return assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
+                       progress=progress, **options)

@@ -20,12 +20,14 @@ import numpy as np
 
 from ..core.constants import DEFAULT_HF, DEFAULT_KF
 from ..core.errors import InputError
+from ..core.file_checks import fewer_faces
 from ..core.integrals import SurfaceIntegrals
 from ..core.progress import null_progress
 from ..core.reference_length import resolve_reference_length
 from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
+from ..core.validity import Qualification, qualify_all
 from ..freecad_env import set_reported_versions
 from .validity.budget import (BUDGET_ROUNDS, QuadratureOptions, disagreement, face_point_budgets, faces_to_refine,
                               grown_budgets, quadrature_options)
@@ -37,7 +39,7 @@ from .geometry.face_field import FaceField
 from ..core.processes import map_faces, resolve_jobs
 from .face_result import FaceAssessment
 from .face_setup import FaceSetup, set_up_or_none, set_up_until
-from .validity.left_out import LeftOutFace, evaluated_faces, left_out_face, mark_left_out
+from .validity.left_out import LeftOutFace, evaluated_faces, left_out_face, left_out_qualification
 from .reading.loading import BRepInput, load_brep
 from .validity.metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
 from .reading.occ_records import patch_count
@@ -274,7 +276,7 @@ class BrepRun:
         rows = face_records(results, integrals, ref.value)
         if left_out:
             rows = sorted(rows + [f.record() for f in left_out], key=lambda r: r["face"])
-            mark_left_out(validity, left_out, integrals.represented_area)
+            qualify_all(validity, left_out_qualification(left_out, integrals.represented_area))
         with self.timed("provenance_s"):
             self.face_provenance(results, rows, validity)
 
@@ -290,6 +292,10 @@ class BrepRun:
                                                               "; ".join(f.reason for f in left_out)))
         self.timings["total_s"] = time.perf_counter() - self.started
         info = dict(self.shape.info)
+        fewer = fewer_faces(info)
+        if fewer is not None:  # the file declares faces its reader did not return
+            qualify_all(validity, fewer)
+            warnings.append(fewer.reason)
         self.provenance["reading"] = self.READING
         self.progress(1.0, "done: %d quadrature points" % points)
         return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
@@ -314,9 +320,8 @@ class BrepRun:
             names = ", ".join("Face%d (%.2g %% of area, %.2g %% of the |K| integral)"
                               % (c["face"], 100 * c["area_share"], 100 * c["K_share"])
                               for c in prov["concentrated_faces"])
-            for m in ("I_D", "I_D_plus", "I_D_minus"):
-                rec = validity[m]
-                rec.reason = (rec.reason + "; " if rec.reason else "") + "curvature concentrated on " + names
+            qualify_all(validity, Qualification("curvature_concentrated", "curvature concentrated on " + names,
+                                                caution=False), metrics=("I_D", "I_D_plus", "I_D_minus"))
         prov["degenerate_points"] = [{"face": f.number, **f.degenerate.to_dict()} for f in results if f.degenerate]
         prov["quadrature"] = [{"face": f.number, **f.quad.to_dict()} for f in results]
         if self.cross_checks:

@@ -32,9 +32,7 @@ class FaceSetup:
         self.recorded = isinstance(face, FaceRecord)
         ff = face.field() if self.recorded else None
         domain = face.domain(ff.evaluator) if self.recorded else None
-        if domain is not None:
-            domain.fallback = None
-        else:
+        if domain is None:
             if self.recorded:  # a domain that needs OpenCascade itself: the face, read here
                 if not part_face:
                     raise _NeedsPartFace()
@@ -43,10 +41,8 @@ class FaceSetup:
             ff = FaceField(face)
             try:
                 domain = TrimmedDomain.from_face(face)
-                domain.fallback = None
             except InputError as exc:
-                domain = polygon_domain(face)
-                domain.fallback = " ".join(str(exc).split())
+                domain = polygon_domain(face, " ".join(str(exc).split()))
         self.ff, self.domain = ff, domain
         if not (domain.u_range[1] > domain.u_range[0] and domain.v_range[1] > domain.v_range[0]):
             raise EmptyDomain("u in [%r, %r], v in [%r, %r]" % (*domain.u_range, *domain.v_range))

@@ -107,7 +107,8 @@ class TrimmedDomain:
     """The trimmed parameter domain of a face, from its trim curves (see module docstring).
 
     Attributes: curves (list of Curve2D), repairs (list of str: exact repairs made by
-    :meth:`from_face`, empty when none), u_range, v_range (2-tuples), is_rectangle (True
+    :meth:`from_face`, empty when none), fallback (why the domain is polygon_domain's, from
+    the 3-D edges; None for a domain of the p-curves), u_range, v_range (2-tuples), is_rectangle (True
     when Omega is its bounding rectangle, the untrimmed natural face), slabs (list of
     (u0, u1, lo_pieces (k,) int, hi_pieces (k,) int)), and per monotone piece the arrays
     piece_u_lo, piece_u_hi (snapped u range), piece_const_v (v of a horizontal piece, else
@@ -115,9 +116,10 @@ class TrimmedDomain:
     all such ends).
     """
 
-    def __init__(self, curves, repairs=()):
+    def __init__(self, curves, repairs=(), fallback=None):
         self.curves = list(curves)
         self.repairs = list(repairs)
+        self.fallback = fallback
         if not self.curves:
             raise InputError("trimmed domain: no trim curves")
         self._build_samples()
@@ -400,8 +402,9 @@ class TrimmedDomain:
         return np.unique(np.concatenate(out)) if out else np.empty(0)
 
 
-def polygon_domain(face):
-    """Fallback trimmed domain when the face's p-curves do not form closed loops: each wire
+def polygon_domain(face, reason=None):
+    """Fallback trimmed domain when the face's p-curves do not form closed loops (reason: why,
+    its fallback attribute): each wire
     discretised in 3-D (deflection POLYGON_DEFLECTION of the face's size), its points
     projected into the face's parameter space, joined by straight lines (closed by
     construction). Exact for straight trims of planes; otherwise an approximation that the
@@ -418,4 +421,4 @@ def polygon_domain(face):
             a, b = uv[i], uv[(i + 1) % len(uv)]
             if np.any(a != b):
                 curves.append(NurbsCurve2D.line(a, b))
-    return TrimmedDomain.from_curves(curves)
+    return TrimmedDomain(curves, fallback=reason)

@@ -5,6 +5,7 @@ from dataclasses import asdict, dataclass, replace
 
 from ...core.errors import InputError
 from ..cubature import QUANTITIES
+from ..cubature.settings import K_INTEGRALS
 from .metric_rules import global_tolerance
 
 PROTOCOLS = ("budget", "paper")
@@ -55,8 +56,9 @@ BUDGET_GROWTH = 4
 #: A face integrated again disagrees with its earlier integration when their values differ by
 #: more than this multiple of their summed error estimates: the estimates are not to be trusted.
 DISAGREEMENT_SAFETY = 1.0
-#: The K integrals, whose errors share out the points left among the faces refined again.
-K_INTEGRALS = ("int_abs_K", "int_K_plus", "int_K_minus")
+#: The names of the K integrals (cubature.settings.K_INTEGRALS, their columns), whose errors
+#: share out the points left among the faces refined again.
+K_QUANTITIES = QUANTITIES[K_INTEGRALS]
 
 
 def faces_to_refine(faces, rtol):
@@ -84,7 +86,7 @@ def grown_budgets(faces, budgets, total, used):
     """The next point budgets of the faces refined again (their CombinedQuadratures faces,
     budgets so far): BUDGET_GROWTH times the budget, or the face's share of the points left
     of total (used so far) by its K integrals' error estimates, whichever is larger."""
-    err = [sum(f.errors[q] for q in K_INTEGRALS) for f in faces]
+    err = [sum(f.errors[q] for q in K_QUANTITIES) for f in faces]
     s = sum(err)
     share = [e / s for e in err] if s > 0 else [1.0 / len(faces)] * len(faces)
     left = max(total - used, 0)

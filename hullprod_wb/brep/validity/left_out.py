@@ -5,7 +5,7 @@ hull's metrics are formed over the evaluated faces and say which faces they leav
 what share of the area those carry (paper section 4.3: validity travels with the number).
 """
 from ...core.errors import InputError
-from ...core.validity import ESTABLISHED, Status
+from ...core.validity import Qualification, Status
 from .cross_checks import area_rule
 from ..geometry.trimmed_domain import EmptyDomain
 
@@ -94,9 +94,9 @@ def evaluated_faces(results):
     return done, left
 
 
-def mark_left_out(validity, left_out, evaluated_area):
-    """Qualify every metric record of validity for the faces left out: CAUTION (from VALID
-    or VALID*) naming them and their share of the area, estimate / (evaluated area + the
+def left_out_qualification(left_out, evaluated_area):
+    """The Qualification of every metric for the faces left out: CAUTION (from VALID or
+    VALID*) naming them and their share of the area, estimate / (evaluated area + the
     estimates), or 'unknown' when a face has no estimate; faces of zero estimated area
     change no status and are named in the evidence."""
     estimates = [f.area_estimate for f in left_out]
@@ -113,9 +113,5 @@ def mark_left_out(validity, left_out, evaluated_area):
               "computed over the evaluated faces; face(s) %s NOT EVALUATED (%s)" % (names, share_text))
     evidence = [{"face": f.number, "reason": f.reason, "area_estimate": f.area_estimate,
                  "area_estimate_method": f.method} for f in left_out]
-    for rec in validity.values():
-        rec.evidence["faces_not_evaluated"] = evidence
-        rec.evidence["not_evaluated_area_share"] = share
-        if not zero and rec.status in ESTABLISHED and rec.status != Status.CAUTION:
-            rec.status, rec.code = Status.CAUTION, "faces_not_evaluated"
-        rec.reason = (rec.reason + "; " if rec.reason else "") + reason
+    return Qualification("faces_not_evaluated", reason,
+                         {"faces_not_evaluated": evidence, "not_evaluated_area_share": share}, caution=not zero)

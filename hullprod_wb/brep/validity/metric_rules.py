@@ -10,7 +10,7 @@ import numpy as np
 
 from ...core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
 from ...core.signature import signature_values
-from ...core.validity import MetricValidity, Status
+from ...core.validity import MetricValidity, Qualification, Status
 from ..cubature.settings import CLASS_AREAS, QUANTITIES, ZERO_SCALE
 
 #: The class-area quantities (flat, single, elliptic, saddle).
@@ -230,9 +230,9 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
     audits = [a for f in faces for a in f.audits]
     verdicts = [a["verdict"] for a in audits]
     deg_count = sum(len(f.degenerate.points) + len(f.degenerate.sides) for f in faces)
-    fallback = [f.number for f in faces if getattr(f.domain, "fallback", None)]
+    fallback = [f.number for f in faces if f.domain.fallback]
     # exact repairs of trim loops (gaps within a vertex's tolerance): no CAUTION, but evidence
-    repaired = [f.number for f in faces if getattr(f.domain, "repairs", None)]
+    repaired = [f.number for f in faces if f.domain.repairs]
     rep, valid = integrals.represented_area, integrals.valid_area
     out = {}
     for m in METRICS:
@@ -263,9 +263,9 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
         if m == "I_D" and history:
             rec.evidence["refinement_sequence"] = history
         if fallback and rec.code != "approximate_trim_domain":
-            rec.evidence["approximate_domains"] = fallback
-            rec.reason = (rec.reason + "; " if rec.reason else "") + (
-                "face(s) %s: trim curves do not close, domain from the 3-D edges" % ",".join(map(str, fallback)))
+            rec.qualify(Qualification(
+                "approximate_trim_domain", "face(s) %s: trim curves do not close, domain from the 3-D edges"
+                % ",".join(map(str, fallback)), {"approximate_domains": fallback}, caution=False))
         out[m] = rec
     return out
 
