@@ -5,11 +5,11 @@ parallel mesher starts a thread pool that a process forked afterwards inherits i
 it cannot use (the child then waits forever). So every read of a user's file runs in a
 child (ReaderProcess) started from a clean process:
 
-- forked, when this process has a single thread (processes.single_threaded: nothing in it
-  has meshed, no BLAS or GUI threads run), which is the command line's case and costs
-  about a millisecond;
-- else a fresh interpreter (subprocess, the same Python and package), which is what a
-  script that has meshed, the FreeCAD GUI's console or a batch worker gets.
+- forked, when this process has a single thread (core.processes.fork_is_clean: nothing in
+  it has meshed, no BLAS or GUI threads run), which is the command line's case;
+- else a fresh interpreter (subprocess, the same Python and package, with the runtime
+  settings of core.runtime), which is what a script that has meshed, the FreeCAD GUI's
+  console or a batch worker gets.
 
 The child runs a task (a generator function named by module and name, whose arguments
 are plain data) and sends each frame it yields, pickled, through a pipe; a frame's STAGE
@@ -25,6 +25,7 @@ import struct
 import sys
 import time
 
+from ...core import runtime
 from ...core.errors import InputError, ReaderDied
 
 #: Key of a frame that only tells the parent what the child does next.
@@ -39,7 +40,8 @@ PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(o
 
 
 def reader_name(path):
-    """'IGES', 'STEP', 'BRep' or 'OpenCascade' (other extensions) for the file at path."""
+    """'IGES', 'STEP', 'BRep' (READER_NAMES, by extension), or 'file' for another extension,
+    for the file at path: the reader named in a message."""
     return READER_NAMES.get(os.path.splitext(str(path))[1].lower(), "file")
 
 
@@ -165,7 +167,8 @@ class ReaderProcess:
                 payload = pickle.dumps((task, args), pickle.HIGHEST_PROTOCOL).hex()
                 safe_path = ["-P"] if sys.version_info >= (3, 11) else []  # no current directory first
                 self._popen = subprocess.Popen([python_interpreter()] + safe_path + ["-c", code, str(w), payload],
-                                               pass_fds=(w,), stdin=subprocess.DEVNULL, stdout=2)
+                                               pass_fds=(w,), stdin=subprocess.DEVNULL, stdout=2,
+                                               env=runtime.environment())
         except BaseException:
             os.close(r)
             raise
