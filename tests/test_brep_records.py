@@ -248,14 +248,21 @@ def test_the_command_reads_brep_files_in_a_separate_process(tmp_path):
 
 def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatch):
     from hullprod_wb.brep.backend import assess_brep
+    from hullprod_wb.brep.recorded_shape import FaceRecord
     from hullprod_wb.brep.reading.record_reader import ReadInChild
     from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
     path = str(tmp_path / "trimmed.step")
     trimmed_bspline_face().exportStep(path)
     here = assess_brep(path, with_fields=False, lref=4.0)
     # as for a p-curve whose conversion fails its check: the face itself, read in this process
-    monkeypatch.setattr(TrimmedDomain, "from_record", classmethod(lambda cls, rec, evaluator: None))
+    asked, rebuilt = [], []
+    part_face = FaceRecord.part_face
+    monkeypatch.setattr(TrimmedDomain, "from_record",
+                        classmethod(lambda cls, rec, evaluator: asked.append(rec.number)))
+    monkeypatch.setattr(FaceRecord, "part_face", lambda self: rebuilt.append(self.number) or part_face(self))
     r = assess_brep(ReadInChild(path, None, False), with_fields=False, lref=4.0)
+    assert asked and set(asked) == {1}  # the records could not give the domain
+    assert rebuilt and set(rebuilt) == {1}  # so the face was rebuilt from OpenCascade's data
     same_records(r, here)
 
 

@@ -30,7 +30,7 @@ class CellSet:
 
     - pid (n,) int: each cell's patch; s0, s1, t0, t1 (n,): its box [s0, s1] x [t0, t1] in
       the patch's (sigma, t) (always given);
-    - from the evaluation (Integration._eval_cells): Q (n, 9) integrals of QUANTITIES (Gauss
+    - from the evaluation (Integration.evaluate): Q (n, 9) integrals of QUANTITIES (Gauss
       sums; a unit's: its children's sums or lines), err_e (n, 9) |Q - Q_embedded|
       (gauss_rules.embedded_weights), mixed (n,) bool: the cell may meet a class boundary or
       K = 0 (a unit: one of its children), peak (n, 3) u, v, |K| J at the sample of largest

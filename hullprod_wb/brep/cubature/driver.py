@@ -90,7 +90,7 @@ class Integration:
         self.pending = None  # units left unaccepted at the last level
         self.budget_spent = False  # refinement stopped by the point budget (refine_to)
         self.point_budget = None if point_budget is None else int(point_budget)
-        self.active = self._eval_cells(self.active, self._prefetched(0))
+        self.active = self.evaluate(self.active, self._prefetched(0))
         if prefetch is not None:
             self.active = self.active.with_(row=np.arange(P))  # the first cell of each (_prefetched)
         self.history = []
@@ -128,7 +128,7 @@ class Integration:
         self.f.n_calls += p.calls[level]
         return vals, nodes
 
-    def _eval_cells(self, c, prefetched=None):
+    def evaluate(self, c, prefetched=None):
         """Tensor Gauss rule on the (sigma, t) cells c (CellSet), with the field's values at its
         nodes and the nodes when given (_prefetched; else computed).
 
@@ -218,7 +218,7 @@ class Integration:
                     and self.pending is not None:
                 self.budget_spent = True
                 break
-            ch = self._eval_cells(child_cells(a), self._prefetched(1, a.row))
+            ch = self.evaluate(child_cells(a), self._prefetched(1, a.row))
             self.depth += 1
             # the last level: the depth limit, or the point budget would not hold the next
             # level's children (at most four a cell refined here)
