@@ -248,7 +248,7 @@ def _one_mixed_cell(f, tau_H, tau_K, box=(0.0, 1.0, 0.0, 1.0), budget=np.inf):
     mc = cub_lines.turn_cells(it.ls, cell, interp)
     ec, es = cub_cuts.edge_cuts(it.ls, mc)
     pc = Pieces.whole(*cut_segments(np.concatenate((mc.boxes.s0, es, mc.boxes.s1)),
-                                 np.concatenate(([0], ec, [0]))))
+                                    np.concatenate(([0], ec, [0]))))
     return it, mc, pc
 
 

@@ -10,8 +10,8 @@ interpolant's cell meets (where the lines miss a part that the interpolant's Ber
 bounds allow, the extremum of K is searched)."""
 import numpy as np
 
-from .cell_interpolant import (SegmentField, local_coordinate, horner, interpolant_extremum, interpolant_range,
-                                level_intersections, tangency_points, window_min_of)
+from .cell_interpolant import (SegmentField, horner, interpolant_extremum, interpolant_range, level_intersections,
+                               local_coordinate, tangency_points, window_min_of)
 from .roots import solve_bracketed
 from .cells import row_sums
 from .crossings import cell_field, crossings
@@ -101,7 +101,7 @@ def tangent_cuts(ls, mc, pc, sig, count, pair, series):
             x3 = np.stack((w0[ik], 0.5 * (ta + tb)[ik], w1[ik]), 1)
             f3 = np.repeat(sign[ik], 3) * level(np.repeat(sk, 3), x3.ravel(), np.repeat(ik, 3))
             out[k] = parabolic_min(lambda t, m: sign[ik[m]] * level(sk[m], t, ik[m]), x3,
-                                    f3.reshape(-1, 3))[1]
+                                   f3.reshape(-1, 3))[1]
         return out
 
     other = np.where(more == j, j + 1, j)

@@ -381,7 +381,7 @@ def integrate_lines(ls, mc, budget):
     ec, es = edge_cuts(ls, mc)
     ar = np.arange(nc)
     cell, sa, sb = cut_segments(np.concatenate((mc.boxes.s0, es, mc.boxes.s1)),
-                             np.concatenate((ar, ec, ar)))
+                                np.concatenate((ar, ec, ar)))
     pc = Pieces.whole(cell, sa, sb)
     left = budget - mc.interp.err
     for level in range(ls.class_max_depth + 1):
