@@ -11,13 +11,14 @@ rebuilt in the process that integrates it, which then loads FreeCAD (recorded_sh
 either way the fields and domains are built from the same numbers as from the faces read
 in that process.
 
-The child sends three frames: the face records (with OpenCascade's values at the
-cross-check points and the edges' vertices, and the faces sent as data) and the file's
-description; the nodes of the automatic-L_ref tessellation (and the described faces as
-data too, for a trimmed domain that needs OpenCascade); then, at the lowest priority, what
-is only needed at the end (provenance with OpenCascade's face areas, the display
-tessellation). The records come first, so that the parent sets the faces up while the
-tessellation runs (ReadInChild.ready tells it whether the next frame is there). A child
+The child sends three frames: FacesFrame, the face records (occ_records.FaceData, with
+OpenCascade's values at the cross-check points and the edges' vertices, and the faces sent
+as data) and the file's description; LrefFrame, the nodes of the automatic-L_ref
+tessellation (and the described faces as data too, for a trimmed domain that needs
+OpenCascade); then, at the lowest priority, LateFrame, what is only needed at the end
+(provenance with OpenCascade's face areas, the display tessellation). The records come
+first, so that the parent sets the faces up while the tessellation runs
+(ReadInChild.lref_ready tells it whether the next frame is there). A child
 that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied.
 
 Nothing here imports numpy: the reading side never loads it.
@@ -154,9 +155,9 @@ class ReadInChild:
 
     faces_frame(), lref_frame() and late_frame() return the three frames (FacesFrame,
     LrefFrame, LateFrame) as the child sent them, waiting for them; lref_ready() tells whether
-    lref_frame() would wait. An InputError of the child (an unreadable file, a bad face number) is raised
-    here with its message; a child that ends before sending frame k raises ReaderDied (an
-    InputError) naming the file and what OpenCascade was doing.
+    lref_frame() would wait. An InputError of the child (an unreadable file, a bad face
+    number) is raised here with its message; a child that ends before sending a frame raises
+    ReaderDied (an InputError) naming the file and what OpenCascade was doing.
     """
 
     FRAMES = 3
