@@ -37,7 +37,7 @@ sys.path.insert(0, {tree!r})
 import hullprod_wb
 assert hullprod_wb.__file__.startswith({tree!r}), hullprod_wb.__file__
 from hullprod_wb.brep.backend import assess_brep
-from hullprod_wb.brep.loading import load_brep
+from hullprod_wb.brep.reading.loading import load_brep
 if {assess!r}:
     import inspect  # one process: faces not in workers (revisions that have the option)
     jobs = dict(jobs=1) if "jobs" in inspect.signature(assess_brep).parameters else {{}}

@@ -14,7 +14,8 @@ def representation_of(source):
     """'brep' or 'mesh' for a path, FreeCAD object, Part.Shape, Mesh.Mesh, trimesh or arrays."""
     if isinstance(source, (str, os.PathLike)):
         return file_representation(source)  # and its structure checked
-    if type(source).__name__ == "ReadInChild":  # a BRep file's reading process (brep.record_reader)
+    from .brep.reading.record_reader import ReadInChild
+    if isinstance(source, ReadInChild):  # a BRep file's reading process
         return "brep"
     if type(source).__module__.startswith("trimesh") or isinstance(source, tuple):
         return "mesh"
@@ -38,8 +39,8 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
     in the input's units (None: automatic). h_f, k_f: class tolerances. backend: 'brep',
     'mesh' or None (by representation). faces: 1-based BRep face numbers to assess.
     options: BRep settings (order, rtol, max_depth, protocol, point_budget, depth_limit: see
-    brep.budget.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
-    brep.face_pool). A FreeCAD document (.FCStd path): object_name (Name or Label) selects
+    brep.validity.budget.DEFAULT_QUADRATURE; jobs: worker processes for the faces, see
+    core.processes). A FreeCAD document (.FCStd path): object_name (Name or Label) selects
     its object (document_input.document_object). Every file's structure is checked before a
     reader sees it (core.file_checks). Returns an Assessment.
     """
@@ -66,9 +67,9 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
                            progress=progress)
     if isinstance(source, (str, os.PathLike)):
         # OpenCascade reads the file in a child, which sends its plain records while this
-        # process loads numpy and the backend (brep.record_reader); a reader that ends the
+        # process loads numpy and the backend (brep.reading.record_reader); a reader that ends the
         # child is reported (core.errors.ReaderDied), and this process reads no file itself
-        from .brep.record_reader import ReadInChild
+        from .brep.reading.record_reader import ReadInChild
         source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
     try:
         from .brep.backend import assess_brep
@@ -76,9 +77,5 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         if hasattr(source, "close"):
             source.close()
         raise
-    result = assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
-                         progress=progress, **options)
-    from .core.file_checks import mark_fewer_faces
-    if mark_fewer_faces(result.validity, result.input or {}):
-        result.warnings.append(next(iter(result.validity.values())).reason.rsplit("; ", 1)[-1])
-    return result
+    return assess_brep(source, lref=lref, h_f=h_f, k_f=k_f, faces=faces, with_fields=with_fields,
+                       progress=progress, **options)

@@ -73,7 +73,7 @@ VALUE_OPTIONS = ("--lref", "--hf", "--kf", "--backend", "--faces", "--order", "-
 
 def early_reading(argv):
     """For `analyze FILE` of a BRep file, which api.assess reads in a separate process
-    (brep.record_reader.ReadInChild): that process, started at once, so that it reads while
+    (brep.reading.record_reader.ReadInChild): that process, started at once, so that it reads while
     the argument parser and the backend load here; None for anything else, as far as a
     plain scan of argv tells (short options, abbreviations, a second positional: None).
     run_analyze takes it over when the parsed arguments ask for the same reading, and
@@ -106,7 +106,7 @@ def early_reading(argv):
         describe_file(path)
     except InputError:
         return None
-    from .brep.record_reader import ReadInChild
+    from .brep.reading.record_reader import ReadInChild
     try:
         faces = parse_faces(opts.get("--faces"))
     except (InputError, TypeError, ValueError):

@@ -62,6 +62,6 @@ def made_in_a_child(make):
     """make() (a Part shape) built in a child forked now and rebuilt here from its binary
     BRep data: OpenCascade's modelling (booleans run in parallel on FreeCAD 1.x) starts its
     threads there, and this process may still fork (clean_process tests)."""
-    from hullprod_wb.brep.face_pool import ForkedCall
-    from hullprod_wb.brep.loading import shape_from_bytes, shape_to_bytes
+    from hullprod_wb.core.processes import ForkedCall
+    from hullprod_wb.brep.reading.loading import shape_from_bytes, shape_to_bytes
     return shape_from_bytes(ForkedCall(lambda: shape_to_bytes(make())).result())

@@ -172,7 +172,7 @@ def test_iges_and_step_round_trip(tmp_path, ext):
 def test_i_d_stability_rule_on_the_refinement_sequence():
     """Section 5.2: I_D is retained only when its last and prior relative changes over the
     refinement levels are within 2 % and 3 %; otherwise it is UNCONVERGED (value null)."""
-    from hullprod_wb.brep.metric_rules import _stable
+    from hullprod_wb.brep.validity.metric_rules import _stable
     assert _stable([{"I_D": 1.0}, {"I_D": 1.029}, {"I_D": 1.04}])  # 2.9 % then 1.1 %
     assert not _stable([{"I_D": 1.0}, {"I_D": 1.05}, {"I_D": 1.051}])  # prior change 5 %
     assert not _stable([{"I_D": 1.0}, {"I_D": 1.0}, {"I_D": 1.03}])  # last change 2.9 %

@@ -39,7 +39,7 @@ def test_dtmb5415_hull_faces_converged_improper_integral():
     assert [row["face"] for row in r.provenance["faces"]] == [1, 2]
     # Face1 (bow, sonar dome) carries most of the |K| integral on under a fifth of the area,
     # a ratio (4.8) below CONCENTRATION_RATIO: no face is flagged as concentrated
-    from hullprod_wb.brep.metric_rules import CONCENTRATION_RATIO
+    from hullprod_wb.brep.validity.metric_rules import CONCENTRATION_RATIO
     face1, face2 = r.provenance["faces"]
     assert face1["area_share"] < 0.2 and face1["K_share"] > 0.9 and face2["K_share"] < 0.1
     assert face1["K_share"] / face1["area_share"] < CONCENTRATION_RATIO

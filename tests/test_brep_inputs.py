@@ -17,13 +17,13 @@ def run_cli(*args):
 
 
 def test_missing_file(tmp_path):
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.reading.loading import load_brep
     with pytest.raises(InputError, match="not found"):
         load_brep(str(tmp_path / "nope.igs"))
 
 
 def test_corrupt_iges_is_rejected(tmp_path):
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.reading.loading import load_brep
     p = tmp_path / "corrupt.igs"
     p.write_text("this is not an IGES file\n" * 5)
     with pytest.raises(InputError, match="(?i)iges"):
@@ -31,7 +31,7 @@ def test_corrupt_iges_is_rejected(tmp_path):
 
 
 def test_empty_step_is_rejected(tmp_path):
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.reading.loading import load_brep
     p = tmp_path / "empty.step"
     p.write_text("")
     with pytest.raises(InputError, match="empty"):
@@ -42,7 +42,7 @@ def test_shape_without_faces(tmp_path):
     from hullprod_wb.freecad_env import import_freecad
     FreeCAD = import_freecad()
     import Part
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.reading.loading import load_brep
     p = tmp_path / "wire.brep"
     Part.makeLine(FreeCAD.Vector(0, 0, 0), FreeCAD.Vector(1, 0, 0)).exportBrep(str(p))
     with pytest.raises(InputError, match="no faces"):
@@ -52,7 +52,7 @@ def test_shape_without_faces(tmp_path):
 
 
 def test_face_selection_out_of_range():
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.reading.loading import load_brep
     from hullprod_wb.freecad_env import import_freecad
     import_freecad()
     import Part
@@ -63,7 +63,7 @@ def test_face_selection_out_of_range():
 
 
 def test_source_shape_is_not_modified():
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.reading.loading import load_brep
     from hullprod_wb.freecad_env import import_freecad
     import_freecad()
     import Part
@@ -75,15 +75,15 @@ def test_source_shape_is_not_modified():
 
 
 def test_declared_units_of_shared_hulls():
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.reading.loading import load_brep
     b = load_brep(shared_hull("brep/dtmb5415_half_overture.igs"))
     assert b.units["source_unit"] == "m" and b.units["working_unit"] == "mm"
     assert b.info["face_count"] == 3
 
 
 def test_provenance_counts_creases_and_side():
-    from hullprod_wb.brep.loading import load_brep
-    from hullprod_wb.brep.provenance import shape_provenance
+    from hullprod_wb.brep.reading.loading import load_brep
+    from hullprod_wb.brep.reading.provenance import shape_provenance
     from hullprod_wb.freecad_env import import_freecad
     import_freecad()
     import Part

@@ -1,5 +1,5 @@
 """A BRep file assessed from the plain records of a reading child process
-(brep.record_reader, brep.recorded_shape): the same numbers, to the bit, as reading it in
+(brep.reading.record_reader, brep.recorded_shape): the same numbers, to the bit, as reading it in
 this process; faces the records do not describe sent as OpenCascade's data; a child that
 dies reported; errors with the same messages; a reading side that never loads numpy."""
 import math
@@ -10,11 +10,11 @@ import sys
 import pytest
 
 from conftest import made_in_a_child, needs_freecad, shared_hull
-from hullprod_wb.brep import face_pool
+from hullprod_wb.core import processes
 from hullprod_wb.core.errors import InputError
 
 pytestmark = [needs_freecad,
-              pytest.mark.skipif(not face_pool.fork_is_safe(), reason="forking is not available here")]
+              pytest.mark.skipif(not processes.fork_is_safe(), reason="forking is not available here")]
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _PARENT = os.getpid()
@@ -52,7 +52,7 @@ def trimmed_bspline_face():
 def both_ways(path, **kw):
     """(assessed from the records of a reading child, assessed from the file read here)."""
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     with_fields = kw.get("with_fields", True)
     recorded = assess_brep(ReadInChild(path, kw.get("faces"), with_fields), **kw)
     here = assess_brep(path, **kw)
@@ -135,7 +135,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
     OpenCascade's binary BRep data and rebuilt where they are integrated: the values of the
     file read here, whatever the processes."""
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, V = _part()
     box, mixed = str(tmp_path / "box.step"), str(tmp_path / "mixed.step")
@@ -145,7 +145,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
     shape = RecordedShape(ReadInChild(mixed, None, False))
     kinds = [(f.surface_type, f.as_data) for _, f in shape.faces]
     assert kinds == [("BSplineSurface", False), ("Cylinder", True), ("Plane", True)]
-    assert "Cylinder surface" in shape.faces[1][1].rec["reason"]
+    assert "Cylinder surface" in shape.faces[1][1].rec.reason
     rebuilt = shape.faces[1][1].part_face()
     assert type(rebuilt.Surface).__name__ == "Cylinder" and rebuilt.Area == pytest.approx(math.pi)
     shape.close()
@@ -159,7 +159,7 @@ def test_faces_of_other_types_travel_as_opencascade_data(tmp_path):
 
 def test_errors_of_the_reading_process_are_raised_here(tmp_path):
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     bad = tmp_path / "bad.igs"
     bad.write_text("not an IGES file\n" * 5)
     with pytest.raises(InputError) as here:
@@ -184,7 +184,7 @@ def test_a_reading_process_that_dies_is_reported(tmp_path, monkeypatch):
     """A reading process that ends (an exit or a signal) before its last frame raises
     ReaderDied, naming the file, what OpenCascade was doing and the likely cause; nothing
     is read here instead."""
-    from hullprod_wb.brep import lref_samples, loading, record_reader
+    from hullprod_wb.brep.reading import lref_samples, loading, record_reader
     from hullprod_wb.brep.backend import assess_brep
     from hullprod_wb.core.errors import ReaderDied
     path = str(tmp_path / "wavy.step")
@@ -219,12 +219,12 @@ def test_the_reading_side_does_not_load_numpy(tmp_path):
         "sys.path.insert(0, %r)\n"
         "from hullprod_wb.freecad_env import import_freecad\n"
         "import_freecad()\n"
-        "from hullprod_wb.brep import record_reader\n"
-        "from hullprod_wb.brep.loading import load_brep\n"
+        "from hullprod_wb.brep.reading import record_reader\n"
+        "from hullprod_wb.brep.reading.loading import load_brep\n"
         "frames = list(record_reader._frames(load_brep(%r), True, None, 0.0))\n"
-        "assert len(frames) == 3 and 'faces' in frames[0], frames[0]\n"
+        "assert len(frames) == 3 and frames[0][record_reader.FRAME].faces, frames[0]\n"
         "assert 'numpy' not in sys.modules, sorted(m for m in sys.modules if 'numpy' in m)[:5]\n"
-        "print('ok', len(frames[0]['faces']))\n" % (ROOT, path))
+        "print('ok', len(frames[0][record_reader.FRAME].faces))\n" % (ROOT, path))
     p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr[-2000:]
     assert p.stdout.split() == ["ok", "1"]
@@ -248,14 +248,21 @@ def test_the_command_reads_brep_files_in_a_separate_process(tmp_path):
 
 def test_a_face_whose_domain_needs_opencascade_is_read_here(tmp_path, monkeypatch):
     from hullprod_wb.brep.backend import assess_brep
-    from hullprod_wb.brep.record_reader import ReadInChild
-    from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+    from hullprod_wb.brep.recorded_shape import FaceRecord
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
+    from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
     path = str(tmp_path / "trimmed.step")
     trimmed_bspline_face().exportStep(path)
     here = assess_brep(path, with_fields=False, lref=4.0)
     # as for a p-curve whose conversion fails its check: the face itself, read in this process
-    monkeypatch.setattr(TrimmedDomain, "from_record", classmethod(lambda cls, rec, evaluator: None))
+    asked, rebuilt = [], []
+    part_face = FaceRecord.part_face
+    monkeypatch.setattr(TrimmedDomain, "from_record",
+                        classmethod(lambda cls, rec, evaluator: asked.append(rec.number)))
+    monkeypatch.setattr(FaceRecord, "part_face", lambda self: rebuilt.append(self.number) or part_face(self))
     r = assess_brep(ReadInChild(path, None, False), with_fields=False, lref=4.0)
+    assert asked and set(asked) == {1}  # the records could not give the domain
+    assert rebuilt and set(rebuilt) == {1}  # so the face was rebuilt from OpenCascade's data
     same_records(r, here)
 
 
@@ -267,18 +274,18 @@ def test_faces_are_set_up_here_while_the_reading_process_tessellates(tmp_path, m
     to its worker."""
     from hullprod_wb.brep import backend
     from hullprod_wb.brep.face_setup import FaceSetup
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
-    from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+    from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
     Part, _ = _part()
     path = str(tmp_path / "two.step")
     made_in_a_child(lambda: Part.Compound([wavy_bspline_face(4, 3), trimmed_bspline_face()])).exportStep(path)
 
     reader = ReadInChild(path, None, False)
-    first = reader.frame(0)
-    assert all("area" not in rec for rec in first["faces"])  # OpenCascade's areas come last
-    reader.frame(1)
-    assert reader.ready(0) and reader.ready(1)
+    first = reader.faces_frame()
+    assert all(not hasattr(rec, "area") for rec in first.faces)  # OpenCascade's areas come last
+    reader.lref_frame()
+    assert reader.lref_ready()
     reader.close()
 
     made = []
@@ -313,7 +320,7 @@ def test_a_lone_face_prefetches_its_first_levels_while_the_reading_process_tesse
     (cubature.NodePrefetch) until L_ref arrives; the integration takes those values over:
     the same integrals, to the bit, as the file read here."""
     from hullprod_wb.brep import backend, cubature
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     from hullprod_wb.brep.recorded_shape import RecordedShape
     Part, _ = _part()
     path = str(tmp_path / "lone.step")
@@ -371,7 +378,7 @@ def test_the_command_starts_the_reading_process_before_parsing_its_arguments(tmp
 
     monkeypatch.undo()
     # the command in a fresh process (FreeCAD not loaded), counting the reading processes
-    driver = ("import sys; from hullprod_wb import cli; from hullprod_wb.brep import record_reader as p\n"
+    driver = ("import sys; from hullprod_wb import cli; from hullprod_wb.brep.reading import record_reader as p\n"
               "init = p.ReadInChild.__init__\n"
               "def counted(self, *a, **k):\n"
               "    sys.stderr.write('reading process for %s\\n' % a[0]); init(self, *a, **k)\n"

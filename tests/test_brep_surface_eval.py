@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 from conftest import needs_freecad, shared_hull
-from hullprod_wb.brep import differential
-from hullprod_wb.brep.nurbs import NurbsSurfaceData
-from hullprod_wb.brep.surface_eval import SurfaceEvaluator, face_surface
+from hullprod_wb.brep.geometry import differential
+from hullprod_wb.brep.geometry.nurbs import NurbsSurfaceData
+from hullprod_wb.brep.geometry.surface_eval import SurfaceEvaluator, face_surface
 from hullprod_wb.core.errors import InputError
 
 TOL = 1e-9  # see module docstring
@@ -458,8 +458,8 @@ def test_face_field_grid_equals_pointwise(fc):
     """FaceField.grid and area_element_grid give the pointwise fields (J, K, H, regular) of a
     trimmed B-spline face's grids, and the cubature's values at grid cells equal those of the
     same field without a grid method."""
-    from hullprod_wb.brep.face_field import FaceField
-    from hullprod_wb.brep.cubature.cells import _Field
+    from hullprod_wb.brep.geometry.face_field import FaceField
+    from hullprod_wb.brep.cubature.cells import CountedField
     _, Part = fc
     ff = FaceField(make_bspline(fc, rational=True).toShape())
     rng = np.random.default_rng(2)
@@ -475,7 +475,7 @@ def test_face_field_grid_equals_pointwise(fc):
     class Pointwise:  # the same field without grid()
         def __call__(self, u, v):
             return ff(u, v)
-    a, b = _Field(ff).grid(u, v), _Field(Pointwise()).grid(u, v)
+    a, b = CountedField(ff).grid(u, v), CountedField(Pointwise()).grid(u, v)
     for x, y in zip(a[:3], b[:3]):
         np.testing.assert_allclose(x, y, rtol=1e-10, atol=1e-12 * np.abs(y).max())
 

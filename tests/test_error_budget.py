@@ -1,17 +1,17 @@
 """Refinement driven by the error estimates within a point budget, one error budget for the
 whole shape, and the nested-neighbourhood audit's decisions (brep.cubature.integrate with
-depth_limit, brep.metric_rules, brep.singular.audit_point and probe_side)."""
+depth_limit, brep.validity.metric_rules, brep.validity.singular.audit_point and probe_side)."""
 import math
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from hullprod_wb.brep import singular
-from hullprod_wb.brep.budget import face_point_budgets, quadrature_options
-from hullprod_wb.brep.metric_rules import global_converged
+from hullprod_wb.brep.validity import singular
+from hullprod_wb.brep.validity.budget import face_point_budgets, quadrature_options
+from hullprod_wb.brep.validity.metric_rules import global_converged
 from hullprod_wb.brep.cubature import QUANTITIES, integrate
-from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
 from hullprod_wb.core.errors import InputError
 
 TAU_H, TAU_K = 1e-4, 1e-3
@@ -158,7 +158,7 @@ def test_rounding_level_curvature_at_an_apex_is_not_a_singularity():
 
 
 def test_stability_rule_reads_changes_under_the_zero_floor_as_rounding():
-    from hullprod_wb.brep.metric_rules import _stable
+    from hullprod_wb.brep.validity.metric_rules import _stable
     noise = [{"I_D": x} for x in (6.7e-32, 4.5e-32, 5.4e-32, 6.7e-32)]
     assert not _stable(noise) and _stable(noise, 1e-6)
     moving = [{"I_D": x} for x in (1.0, 1.1, 1.3)]
@@ -175,7 +175,7 @@ def test_stalled_refinement_is_located_at_the_knot_grid_node():
 
 
 def test_faces_that_carry_the_excess_error_are_refined_again():
-    from hullprod_wb.brep.budget import faces_to_refine
+    from hullprod_wb.brep.validity.budget import faces_to_refine
     ok = {k: 1e-7 for k in QUANTITIES}
     big = {k: 1.0 for k in QUANTITIES}
     faces = [_face(big, dict(ok), {k: 1e-4 for k in QUANTITIES}) for _ in range(3)]
@@ -208,7 +208,7 @@ def test_near_threshold_band_has_converged_class_fractions(eps):
 
 
 def test_threshold_band_is_the_area_near_the_thresholds():
-    from hullprod_wb.brep.metric_rules import threshold_band
+    from hullprod_wb.brep.validity.metric_rules import threshold_band
     from hullprod_wb.core.thresholds import Thresholds
     th = Thresholds(1.0, 1e-4, 1e-4)  # tau_H = tau_K = 1e-4
     # two unit squares of nodes: the left one's K in the K band, H far from its band
@@ -226,19 +226,19 @@ def test_threshold_band_is_the_area_near_the_thresholds():
 
 
 def test_class_area_errors_of_a_cell_without_area_stay_bounded():
-    from hullprod_wb.brep.cubature.cells import _share_area_error
+    from hullprod_wb.brep.cubature.cells import share_area_error
     # a sliver cell whose area is zero or negative in rounding, with class areas of 1e-16
     Q = np.zeros((2, len(QUANTITIES)))
     Q[:, 0] = [0.0, -1e-18]
     Q[:, 8] = 1e-16
     err = np.zeros_like(Q)
     err[:, 0] = 1e-12
-    out = _share_area_error(err, Q)
+    out = share_area_error(err, Q)
     assert np.all(np.isfinite(out)) and np.all(out[:, 5:] <= 1e-12)
 
 
 def test_disagreeing_refinements_qualify_a_metric_only_when_they_matter():
-    from hullprod_wb.brep.metric_rules import disagreeing_refinements
+    from hullprod_wb.brep.validity.metric_rules import disagreeing_refinements
     vals = {k: 1.0 for k in QUANTITIES}
     faces = [_face(dict(vals), {k: 1e-7 for k in QUANTITIES}, {k: 1e-4 for k in QUANTITIES}) for _ in range(2)]
     faces[0].number, faces[1].number = 1, 2
@@ -254,7 +254,7 @@ def test_disagreeing_refinements_qualify_a_metric_only_when_they_matter():
 
 
 def test_grown_budgets_give_the_points_left_by_error_share_or_four_times_the_budget():
-    from hullprod_wb.brep.budget import BUDGET_GROWTH, grown_budgets
+    from hullprod_wb.brep.validity.budget import BUDGET_GROWTH, grown_budgets
     q = [SimpleNamespace(errors={"int_abs_K": e, "int_K_plus": 0.0, "int_K_minus": 0.0}) for e in (3.0, 1.0)]
     # 8e6 points, 2e6 used: 6e6 left, shared 3:1
     assert grown_budgets(q, [100_000, 100_000], 8_000_000, 2_000_000) == [4_500_000, 1_500_000]

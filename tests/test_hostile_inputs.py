@@ -13,8 +13,8 @@ import pytest
 from conftest import ROOT, needs_freecad, shared_hull
 
 from hullprod_wb.core.errors import InputError
-from hullprod_wb.core.file_checks import check_file, mark_fewer_faces
-from hullprod_wb.core.validity import MetricValidity, Status
+from hullprod_wb.core.file_checks import check_file, fewer_faces
+from hullprod_wb.core.validity import MetricValidity, Status, qualify_all
 
 CUTS = [0.10, 0.17, 0.25, 0.33, 0.5, 0.6, 0.75, 0.8, 0.9, 0.95, 0.99]
 
@@ -165,10 +165,9 @@ def test_ascii_stl_end_read_from_the_tail(tmp_path, padding):
 
 def test_fewer_faces_than_declared_is_a_caution():
     validity = {m: MetricValidity(Status.VALID, 1.0, "", "converged") for m in ("I_D", "a_flat")}
-    assert not mark_fewer_faces(validity, {"declared": {"declared_faces": 3}, "face_count": 3})
-    assert all(r.status == Status.VALID for r in validity.values())
-    assert mark_fewer_faces(validity, {"declared": {"declared_faces": 3, "declared_faces_rule": "r"},
-                                       "face_count": 1})
+    assert fewer_faces({"declared": {"declared_faces": 3}, "face_count": 3}) is None
+    q = fewer_faces({"declared": {"declared_faces": 3, "declared_faces_rule": "r"}, "face_count": 1})
+    qualify_all(validity, q)
     for rec in validity.values():
         assert rec.status == Status.CAUTION and rec.code == "fewer_faces_than_declared"
         assert "1 faces of the 3" in rec.reason and rec.evidence["faces_read"] == 1
@@ -218,8 +217,8 @@ def test_a_face_that_raises_is_not_evaluated(monkeypatch):
 
 @needs_freecad
 def test_occ_area_failures_do_not_end_the_provenance():
-    from hullprod_wb.brep.loading import load_brep
-    from hullprod_wb.brep.provenance import occ_face_area, shape_provenance
+    from hullprod_wb.brep.reading.loading import load_brep
+    from hullprod_wb.brep.reading.provenance import occ_face_area, shape_provenance
     inp = load_brep(shared_hull("brep/wigley_full_freecadship.brep"))
     failed = [n for n, f in inp.faces if occ_face_area(f) is None]
     assert failed  # OpenCascade's BRepGProp raises on some of its faces
@@ -230,9 +229,9 @@ def test_occ_area_failures_do_not_end_the_provenance():
 @needs_freecad
 def test_face_without_domain_extent_has_zero_area():
     from hullprod_wb.brep.face_setup import FaceSetup
-    from hullprod_wb.brep.face_setup import EmptyDomain
-    from hullprod_wb.brep.left_out import left_out_face
-    from hullprod_wb.brep.loading import load_brep
+    from hullprod_wb.brep.geometry.trimmed_domain import EmptyDomain
+    from hullprod_wb.brep.validity.left_out import left_out_face
+    from hullprod_wb.brep.reading.loading import load_brep
     inp = load_brep(shared_hull("brep/kcs_full_closed_ohp.iges"))
     empty = []
     for n, f in inp.faces:

@@ -1,7 +1,9 @@
 """The package's import graph, read from the source (ast), imports inside functions included:
 it has no cycle, and the numerical layers (core, mesh, brep) import nothing from the layers
 above them (app, gui, batch, studies, cli). The one exception is FreeCAD's convention of
-importing a view provider on the App side under `if FreeCAD.GuiUp:`."""
+importing a view provider on the App side under `if FreeCAD.GuiUp:`. Inside brep, each
+subpackage imports only the layers below it (BREP_LAYERS), and none imports the run (the
+modules at brep/ level)."""
 import ast
 import os
 
@@ -10,6 +12,14 @@ import pytest
 ROOT = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "hullprod_wb")
 LOWER = ("core", "mesh", "brep")
 UPPER = ("app", "gui", "batch", "studies", "cli")
+#: What each brep subpackage may import besides itself: package modules outside brep (of
+#: these layers or top-level modules such as freecad_env) and the brep subpackages listed.
+BREP_LAYERS = {
+    "cubature": {"outside": ("core",), "brep": ()},
+    "reading": {"outside": ("core", "freecad_env"), "brep": ()},
+    "geometry": {"outside": ("core",), "brep": ("reading", "cubature")},
+    "validity": {"outside": ("core",), "brep": ("reading", "geometry", "cubature")},
+}
 
 
 def _module_name(path):
@@ -108,7 +118,8 @@ def test_the_graph_is_read():
     graph = import_graph()
     assert "hullprod_wb.brep.backend" in graph["hullprod_wb.api"] or \
         any(m.startswith("hullprod_wb.brep") for m in graph["hullprod_wb.api"])
-    assert "hullprod_wb.core.errors" in graph["hullprod_wb.brep.nurbs"]
+    assert "hullprod_wb.core.errors" in graph["hullprod_wb.brep.geometry.nurbs"]
+    assert "hullprod_wb.brep.cubature.roots" in graph["hullprod_wb.brep.geometry.trimmed_domain"]
 
 
 def test_no_import_cycle():
@@ -128,3 +139,44 @@ def test_numerical_layers_import_nothing_above_them(layer):
     wrong = sorted("%s -> %s" % (m, t) for m, targets in graph.items() if _layer(m) == layer
                    for t in targets if _layer(t) in UPPER)
     assert wrong == []
+
+
+def _brep_part(module):
+    """The brep subpackage of a module ('cubature', 'reading', ...), 'run' for the modules at
+    brep/ level, None outside brep."""
+    parts = module.split(".")
+    if parts[1:2] != ["brep"]:
+        return None
+    return parts[2] if len(parts) > 2 and parts[2] in BREP_LAYERS else "run"
+
+
+def _allowed(part, target):
+    """Whether a module of the brep subpackage part may import target."""
+    other = _brep_part(target)
+    if other is None:
+        return target.split(".")[1] in BREP_LAYERS[part]["outside"]
+    return other == part or other in BREP_LAYERS[part]["brep"]
+
+
+def test_brep_is_in_subpackages():
+    graph = import_graph()
+    assert {_brep_part(m) for m in graph} == set(BREP_LAYERS) | {"run", None}
+    run = sorted(m.rsplit(".", 1)[1] for m in graph if _brep_part(m) == "run" and m != "hullprod_wb.brep")
+    assert len(run) <= 8, run  # the run and its face pipeline, the rest in the subpackages
+
+
+@pytest.mark.parametrize("part", sorted(BREP_LAYERS))
+def test_brep_subpackages_import_only_the_layers_below(part):
+    graph = import_graph()
+    wrong = sorted("%s -> %s" % (m, t) for m, targets in graph.items() if _brep_part(m) == part
+                   for t in targets if not _allowed(part, t))
+    assert wrong == []
+
+
+def test_the_layer_rule_catches_a_wrong_import():
+    assert _allowed("cubature", "hullprod_wb.core.errors")
+    assert not _allowed("cubature", "hullprod_wb.brep.geometry.nurbs")
+    assert not _allowed("geometry", "hullprod_wb.brep.validity.singular")
+    assert not _allowed("validity", "hullprod_wb.brep.face_setup")
+    assert not _allowed("reading", "hullprod_wb.mesh.readers")
+    assert _allowed("validity", "hullprod_wb.brep.cubature")

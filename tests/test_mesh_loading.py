@@ -316,7 +316,7 @@ def test_file_hash_follows_the_file(tmp_path):
 
 def test_no_thread_is_left_once_the_work_is_done(tmp_path):
     """The file's digest and the mesh path's threads end with their work, so that the
-    process may fork worker processes afterwards (brep.face_pool forks only a process
+    process may fork worker processes afterwards (core.processes forks only a process
     with one thread)."""
     import threading
     from hullprod_wb.core.inputs import start_sha256

@@ -1,5 +1,5 @@
 """Every OpenCascade read of a user's file runs in a child started from a clean process
-(brep.reader_process): a reader that ends the process gives exit 2 with one line; no fork
+(brep.reading.reader_process): a reader that ends the process gives exit 2 with one line; no fork
 happens once OpenCascade may have started threads (a script that meshes, then assesses
 files); readers started from a fresh interpreter send what forked ones send."""
 import json
@@ -94,19 +94,19 @@ def test_a_damaged_iges_that_ends_the_reader_gives_exit_2(tmp_path):
 MESH_THEN_ASSESS = r"""
 import json, os, sys
 sys.path.insert(0, %(root)r)
-from hullprod_wb.brep import face_pool
+from hullprod_wb.core import processes
 from hullprod_wb.freecad_env import import_freecad
 forks = []
 fork = os.fork
 def counted():
-    forks.append(face_pool.thread_count())
+    forks.append(processes.thread_count())
     return fork()
 os.fork = counted
 import_freecad()
 import Part
 import hullprod_wb
 Part.makeSphere(1.0).tessellate(0.01)  # the script's own meshing
-meshed_threads = face_pool.thread_count()
+meshed_threads = processes.thread_count()
 out = {"meshed_threads": meshed_threads, "values": []}
 for _ in range(4):
     for path in sys.argv[1:]:
@@ -149,27 +149,27 @@ def test_a_script_that_meshes_then_assesses_files_forks_nothing(tmp_path):
 
 @pytest.mark.clean_process
 def test_a_reader_from_a_fresh_interpreter_sends_what_a_forked_one_sends(tmp_path):
-    from hullprod_wb.brep import face_pool
-    from hullprod_wb.brep.record_reader import ReadInChild
+    from hullprod_wb.core import processes
+    from hullprod_wb.brep.reading.record_reader import ReadInChild
     Part, V = _part()
     path = str(tmp_path / "mixed.step")
     Part.Compound([wavy_face(), Part.makePlane(1.0, 1.0, V(0, 0, -2))]).exportStep(path)
-    assert face_pool.fork_is_clean()
+    assert processes.fork_is_clean()
     forked = ReadInChild(path, None, True)
     assert forked._child._pid is not None
     stop = threading.Event()
     other = threading.Thread(target=stop.wait)
     other.start()  # a second thread: no fork from here now
     try:
-        assert not face_pool.fork_is_clean()
+        assert not processes.fork_is_clean()
         fresh = ReadInChild(path, None, True)
         assert fresh._child._pid is None and fresh._child._popen is not None
     finally:
         stop.set()
         other.join()
-    a = [forked.frame(k) for k in range(3)]
-    b = [fresh.frame(k) for k in range(3)]
-    strip = lambda f: {k: v for k, v in f.items() if k not in ("read_seconds", "seconds")}
+    a = [forked.faces_frame(), forked.lref_frame(), forked.late_frame()]
+    b = [fresh.faces_frame(), fresh.lref_frame(), fresh.late_frame()]
+    strip = lambda f: {k: v for k, v in vars(f).items() if k not in ("read_seconds", "seconds")}
     assert [strip(f) for f in a] == [strip(f) for f in b]
     forked.close()
     fresh.close()
@@ -179,7 +179,7 @@ def test_a_reader_that_stalls_is_stopped_at_the_time_limit(tmp_path, monkeypatch
     """A reading process that sends nothing within the file's read time limit is stopped,
     and the reading ends as a damaged file (ReaderDied, an InputError: exit 2)."""
     import time
-    from hullprod_wb.brep.reader_process import ReaderProcess
+    from hullprod_wb.brep.reading.reader_process import ReaderProcess
     from hullprod_wb.core.errors import ReaderDied
     path = tmp_path / "stalls.brep"
     path.write_text("DBRep_DrawableShape\n")

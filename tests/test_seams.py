@@ -54,7 +54,7 @@ def pcurve_ends(pairs):
 
 
 def test_a_seam_gives_both_of_its_pcurves_on_every_freecad():
-    from hullprod_wb.brep.occ_records import face_pcurves
+    from hullprod_wb.brep.reading.occ_records import face_pcurves
     for name, (face, *_) in seam_faces().items():
         seams = [e for e in face.Edges if e.isSeam(face)]
         assert len(seams) == (2 if name == "torus" else 1), name

@@ -167,7 +167,7 @@ def test_sameface_inset_and_bad_input(shapes):
 
 def test_sameface_trimmed_face_rectangle_inside_domain():
     import Part
-    from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+    from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
     from hullprod_wb.studies.sameface import grid_parameters, inset_rectangle
     face = Part.Face(Part.Wire(Part.makeCircle(1.0)))  # a unit disc: a trimmed plane
     region = inset_rectangle(face)
@@ -235,9 +235,9 @@ def test_sameface_crease_on_grid_lines():
 def _abs_K_shares_midpoint(path, m=200):
     """{face: share of the integral of |K| dA}, midpoint rule on m x m parameter cells of each
     (untrimmed) face; an estimate independent of the BRep backend's quadrature."""
-    from hullprod_wb.brep.differential import surface_differentials
-    from hullprod_wb.brep.loading import load_brep
-    from hullprod_wb.brep.surface_eval import SurfaceEvaluator
+    from hullprod_wb.brep.geometry.differential import surface_differentials
+    from hullprod_wb.brep.reading.loading import load_brep
+    from hullprod_wb.brep.geometry.surface_eval import SurfaceEvaluator
     out = {}
     for number, face in load_brep(path).faces:
         ev = SurfaceEvaluator.for_face(face)

@@ -12,8 +12,8 @@ import pytest
 
 from conftest import needs_freecad, shared_hull
 from hullprod_wb.brep.cubature import integrate
-from hullprod_wb.brep.pcurves import NurbsCurve2D
-from hullprod_wb.brep.trimmed_domain import TrimmedDomain
+from hullprod_wb.brep.geometry.pcurves import NurbsCurve2D
+from hullprod_wb.brep.geometry.trimmed_domain import TrimmedDomain
 from hullprod_wb.core.errors import InputError
 
 TAU_H, TAU_K = 1e-4, 1e-3
@@ -80,7 +80,7 @@ def brep_face(Part, surface, vertices, edges):
 
 def area_field(face):
     """J of the face (K = H = 1: no class lines), for represented-area checks."""
-    from hullprod_wb.brep.face_field import FaceField
+    from hullprod_wb.brep.geometry.face_field import FaceField
     ff = FaceField(face)
 
     def f(u, v):
@@ -215,7 +215,7 @@ def polygon_bound(face, edge_tol):
     within its chord deflection plus the edges' tolerance (distance of p-curve image and
     3-D curve) of the p-curves' image, so the areas differ by at most that times the
     boundary length."""
-    from hullprod_wb.brep.trimmed_domain import POLYGON_DEFLECTION
+    from hullprod_wb.brep.geometry.trimmed_domain import POLYGON_DEFLECTION
     deflection = POLYGON_DEFLECTION * face.BoundBox.DiagonalLength
     return (deflection + edge_tol) * wire_length(face)
 
@@ -251,19 +251,19 @@ def green_area_3d(face, order=24):
 
 @pytest.fixture(scope="module")
 def catamaran_deck(Part):
-    from hullprod_wb.brep.loading import read_shape
+    from hullprod_wb.brep.reading.loading import read_shape
     return read_shape(shared_hull("brep/catamaran_demihull.step"), "step").Faces[5]
 
 
 @pytest.fixture(scope="module")
 def kvlcc2_face10(Part):
-    from hullprod_wb.brep.loading import read_shape
+    from hullprod_wb.brep.reading.loading import read_shape
     return read_shape(shared_hull("brep/kvlcc2_half_overture.igs"), "iges").Faces[9]
 
 
 @needs_freecad
 def test_catamaran_deck_is_closed_at_its_two_stern_corners(catamaran_deck):
-    from hullprod_wb.brep.trimmed_domain import polygon_domain
+    from hullprod_wb.brep.geometry.trimmed_domain import polygon_domain
     face = catamaran_deck
     d = TrimmedDomain.from_face(face)
     assert len(d.repairs) == 2 and all(r.startswith("gap closed at vertex") for r in d.repairs)
@@ -281,8 +281,8 @@ def test_catamaran_deck_is_closed_at_its_two_stern_corners(catamaran_deck):
 
 @needs_freecad
 def test_kvlcc2_face10_is_closed_at_its_vertex(kvlcc2_face10):
-    from hullprod_wb.brep.trimmed_domain import polygon_domain
-    from hullprod_wb.brep.face_field import FaceField
+    from hullprod_wb.brep.geometry.trimmed_domain import polygon_domain
+    from hullprod_wb.brep.geometry.face_field import FaceField
     face = kvlcc2_face10
     d = TrimmedDomain.from_face(face)
     assert len(d.repairs) == 1 and d.repairs[0].startswith("gap closed at vertex (125.345")

@@ -6,7 +6,7 @@ here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here"
 export QT_QPA_PLATFORM=${QT_QPA_PLATFORM:-offscreen}
 # One BLAS thread, as the command runs (./hullprod): a process with no thread besides its
-# own may fork worker and reading processes (brep.face_pool.fork_is_clean).
+# own may fork worker and reading processes (core.processes.fork_is_clean).
 export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"
 # Test files or test ids among the arguments: those alone; otherwise the whole folder.
 targets=tests

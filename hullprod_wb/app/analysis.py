@@ -18,7 +18,7 @@ import time
 
 from ..core.constants import METRICS
 from ..core.errors import InputError
-from ..brep.budget import DEFAULT_QUADRATURE, PROTOCOLS
+from ..brep.validity.budget import DEFAULT_QUADRATURE, PROTOCOLS
 from ..core.progress import Cancelled
 from . import preferences
 from .progress import RunProgress
@@ -32,9 +32,9 @@ STATUS_NOT_COMPUTED = "not computed"
 STATUS_OK = "ok"
 
 #: The backend's defaults of the quadrature settings added after the first documents were saved.
-QUADRATURE_DEFAULTS = {"QuadratureProtocol": DEFAULT_QUADRATURE["protocol"],
-                       "QuadraturePointBudget": DEFAULT_QUADRATURE["point_budget"],
-                       "QuadratureDepthLimit": DEFAULT_QUADRATURE["depth_limit"]}
+QUADRATURE_DEFAULTS = {"QuadratureProtocol": DEFAULT_QUADRATURE.protocol,
+                       "QuadraturePointBudget": DEFAULT_QUADRATURE.point_budget,
+                       "QuadratureDepthLimit": DEFAULT_QUADRATURE.depth_limit}
 
 #: (type, name, group, tooltip, output). Output properties are written by execute() only.
 PROPERTIES = [
@@ -388,7 +388,7 @@ def make_analysis(source, faces=None, lref=None, doc=None, h_f=None, k_f=None, o
     source: Part or Mesh document object (never modified); faces: 1-based face numbers of
     a Part (None: all); lref: explicit L_ref in the source's units (None: automatic);
     h_f, k_f, order, rtol, max_depth, protocol, point_budget, depth_limit: None takes the
-    HullProd preferences (brep.budget.DEFAULT_QUADRATURE). progress:
+    HullProd preferences (brep.validity.budget.DEFAULT_QUADRATURE). progress:
     optional callable(fraction, message); skip_planar: leave out planar faces;
     assessment: (Assessment, seconds) already computed for exactly these settings (an
     assessment process of the GUI), stored instead of a run. When the run fails or is

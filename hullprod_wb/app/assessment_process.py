@@ -18,18 +18,24 @@ import sys
 import tempfile
 import time
 
+from ..core import runtime
 from ..core.errors import InputError
 from ..core.progress import Cancelled
 
 #: Interpreter of the assessment process: $HULLPROD_PYTHON, else Debian's Python (the one
 #: that sees FreeCAD's modules; the command line uses it too).
 DEFAULT_PYTHON = "/usr/bin/python3"
-#: Environment of the command line (./hullprod): one BLAS thread, glibc keeps freed heap (large
-#: arrays' too) in one arena for all threads, numpy's arrays on ordinary pages.
-CLI_ENV = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MALLOC_MMAP_THRESHOLD_": "33554432",
-           "MALLOC_TRIM_THRESHOLD_": "1099511627776", "MALLOC_TOP_PAD_": "67108864", "MALLOC_ARENA_MAX": "1",
-           "MALLOC_MMAP_MAX_": "0", "NUMPY_MADVISE_HUGEPAGE": "0"}
 PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def worker_environment(base=None):
+    """The assessment process's environment: base (default os.environ) without PYTHONHOME,
+    with the runtime settings of the command line (core.runtime) where base does not set
+    them, and this package's folder first on PYTHONPATH."""
+    env = runtime.environment(base)
+    env.pop("PYTHONHOME", None)
+    env["PYTHONPATH"] = PACKAGE_ROOT + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    return env
 
 
 def worker_python():
@@ -103,11 +109,7 @@ class AssessmentProcess:
         self.label = source.Label
         self.kind, self.input_path, self.record = source_input(source, faces, self.folder)
         self.faces = list(faces) if faces else None
-        env = dict(os.environ)
-        env.pop("PYTHONHOME", None)
-        for k, v in CLI_ENV.items():
-            env.setdefault(k, v)
-        env["PYTHONPATH"] = PACKAGE_ROOT + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        env = worker_environment()
         self.proc = subprocess.Popen([worker_python(), "-P", "-m", "hullprod_wb.app.worker"], cwd=self.folder,
                                      env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                      stderr=subprocess.DEVNULL, start_new_session=True, bufsize=0)

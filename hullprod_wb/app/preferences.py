@@ -3,7 +3,7 @@
 The Preferences page (hullprod_wb.gui.preferences) edits the same group:
 ``User parameter:BaseApp/Preferences/Mod/HullProd``.
 """
-from ..brep.budget import DEFAULT_QUADRATURE
+from ..brep.validity.budget import DEFAULT_QUADRATURE
 from ..core.constants import DEFAULT_HF, DEFAULT_KF
 
 PARAM_PATH = "User parameter:BaseApp/Preferences/Mod/HullProd"
@@ -21,9 +21,9 @@ DEFAULTS = {
     "QuadratureOrder": ("Int", DEFAULT_ORDER),
     "QuadratureRtol": ("Float", DEFAULT_RTOL),
     "QuadratureMaxDepth": ("Int", DEFAULT_MAX_DEPTH),
-    "QuadratureProtocol": ("String", DEFAULT_QUADRATURE["protocol"]),
-    "QuadraturePointBudget": ("Int", DEFAULT_QUADRATURE["point_budget"]),
-    "QuadratureDepthLimit": ("Int", DEFAULT_QUADRATURE["depth_limit"]),
+    "QuadratureProtocol": ("String", DEFAULT_QUADRATURE.protocol),
+    "QuadraturePointBudget": ("Int", DEFAULT_QUADRATURE.point_budget),
+    "QuadratureDepthLimit": ("Int", DEFAULT_QUADRATURE.depth_limit),
     "DefaultColorMap": ("String", "Developability"),
     "HideSourceOnAnalyze": ("Bool", True),
 }

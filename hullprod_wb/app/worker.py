@@ -57,8 +57,8 @@ def brep_lref(path, faces):
     method (brep.display.tessellation_samples at lref_samples.SAMPLE_DEFLECTION of the
     shape's bounding-box diagonal, then core.reference_length); None where not sampled."""
     from ..brep.display import tessellation_samples
-    from ..brep.loading import load_brep
-    from ..brep.lref_samples import SAMPLE_DEFLECTION
+    from ..brep.reading.loading import load_brep
+    from ..brep.reading.lref_samples import SAMPLE_DEFLECTION
     from ..core.reference_length import principal_axis_span
     inp = load_brep(path, faces)
     size = inp.shape.BoundBox.DiagonalLength  # before anything is tessellated (provenance.shape_boxes)
@@ -88,7 +88,7 @@ def load_proposal(kind, path, faces):
     loaded there only, so the run itself starts as the command line's does)."""
     if kind == "mesh":
         return mesh_lref(path)
-    from ..brep.face_pool import ForkedCall
+    from ..core.processes import ForkedCall
     from ..freecad_env import import_freecad
 
     def compute():
@@ -135,7 +135,7 @@ def main():
                 if loaded is None:
                     raise InputError("nothing was loaded to assess")
                 options = dict(req.get("options") or {}, progress=Progress())
-                from ..brep.face_pool import thread_count
+                from ..core.processes import thread_count
                 threads = thread_count()
                 t = time.perf_counter()
                 result = assess(*loaded, options)

@@ -57,7 +57,7 @@ def run_batch(cases, settings, out=None, workers=None, scheduler=None, resume=Tr
     """Assess cases (from cases.expand_cases) with settings (cases.make_settings).
 
     out: folder for signatures.csv, cases/<case_id>.json and batch.json (None: nothing
-    written, nothing resumed). workers: local processes (None: os.cpu_count(); 0: in this
+    written, nothing resumed). workers: local processes (None: the available CPUs; 0: in this
     process). scheduler: Dask scheduler address or Client (overrides workers). resume: skip
     cases done in out with the same input hash and settings hash. progress: bar on stderr.
     """

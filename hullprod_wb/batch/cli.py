@@ -4,6 +4,7 @@ import signal
 import sys
 
 from ..core.errors import InputError
+from ..core.processes import available_cpus
 
 DEFAULT_OUT = os.path.join("out", "batch")
 
@@ -22,7 +23,7 @@ def add_parser(subparsers):
     b.add_argument("--out", default=DEFAULT_OUT, help="output folder (default %s)" % DEFAULT_OUT)
     b.add_argument("--workers", type=int, default=None,
                    help="local worker processes (default: CPU count %d; 0: run in this process)"
-                        % (os.cpu_count() or 1))
+                        % available_cpus())
     b.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run on a Dask cluster, e.g. tcp://host:8786 (workers need FreeCAD and HullProd)")
     b.add_argument("--variants", default=None, metavar="CSV",

@@ -9,7 +9,7 @@ default (a fresh interpreter per worker; 'forkserver' and 'fork' also work with 
 on Linux; 'fork' is used only from a process with no thread besides its own, since a
 child of a process whose OpenCascade has started threads can wait forever, and 'spawn'
 is used instead elsewhere). Each worker reads its BRep files in reading processes of its
-own (brep.reader_process), so a file that ends OpenCascade's reader gives an error row. At most 2 x workers cases are in
+own (brep.reading.reader_process), so a file that ends OpenCascade's reader gives an error row. At most 2 x workers cases are in
 flight; a worker that dies (a crash in the geometry kernel) breaks the pool, and the
 cases then in flight are rerun one at a time in a fresh single-worker pool, so the
 culprit is recorded as an error and the others complete.
@@ -24,25 +24,21 @@ import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
+from ..core import runtime
 from ..core.errors import InputError
+from ..core.processes import available_cpus
 from .worker import crash_record, run_case, worker_init
 
 START_METHODS = ("spawn", "forkserver", "fork")
 
-#: Environment of local worker processes: one BLAS/OpenMP thread each, as Dask's nanny sets
-#: for its workers. The thread count changes the order of numpy's reductions (and so the
-#: last bits of the sums), so equal settings make local and Dask results bit-identical; it
-#: also keeps N processes from running N x cores threads.
-WORKER_ENVIRON = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
-                  "HULLPROD_JOBS": "1"}  # one case per worker: its faces in the worker itself
 
 CRASH_MESSAGE = ("the worker process died while assessing this case (a crash in the geometry "
                  "kernel or out of memory); it was isolated by rerunning it alone")
 
 
 def default_workers():
-    """Number of local worker processes by default: os.cpu_count()."""
-    return os.cpu_count() or 1
+    """Number of local worker processes by default: the CPUs this process may run on."""
+    return available_cpus()
 
 
 def run_serial(cases, settings, settings_hash):
@@ -64,11 +60,20 @@ def pin_package_path():
         sys.path.insert(0, root)
 
 
+def worker_environment(base=None):
+    """The environment local worker processes start with: the runtime settings (core.runtime)
+    where base (default os.environ) does not set them, and runtime.BATCH_WORKER over all."""
+    env = runtime.environment(base)
+    env.update(runtime.BATCH_WORKER)
+    return env
+
+
 @contextlib.contextmanager
 def worker_environ():
-    """os.environ with WORKER_ENVIRON while worker processes start (restored afterwards)."""
-    saved = {k: os.environ.get(k) for k in WORKER_ENVIRON}
-    os.environ.update(WORKER_ENVIRON)
+    """os.environ as worker_environment() while worker processes start (restored afterwards)."""
+    wanted = {k: v for k, v in worker_environment().items() if os.environ.get(k) != v}
+    saved = {k: os.environ.get(k) for k in wanted}
+    os.environ.update(wanted)
     try:
         yield
     finally:
@@ -80,7 +85,7 @@ def worker_environ():
 
 
 def _pool(workers, start_method):
-    from ..brep.face_pool import fork_is_clean
+    from ..core.processes import fork_is_clean
     if start_method == "fork" and not fork_is_clean():
         start_method = "spawn"
     pin_package_path()
@@ -113,8 +118,8 @@ def _run_alone(case, settings, settings_hash, start_method):
 
 
 def run_local(cases, settings, settings_hash, workers=None, start_method="spawn"):
-    """Run cases in a pool of `workers` processes (default os.cpu_count()), each started
-    with WORKER_ENVIRON."""
+    """Run cases in a pool of `workers` processes (default: the available CPUs), each started
+    with worker_environment()."""
     workers = default_workers() if workers is None else int(workers)
     if workers < 1:
         raise InputError("--workers must be at least 1, got %d" % workers)

@@ -20,29 +20,31 @@ import numpy as np
 
 from ..core.constants import DEFAULT_HF, DEFAULT_KF
 from ..core.errors import InputError
+from ..core.file_checks import fewer_faces
 from ..core.integrals import SurfaceIntegrals
 from ..core.progress import null_progress
 from ..core.reference_length import resolve_reference_length
 from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
+from ..core.validity import Qualification, qualify_all
 from ..freecad_env import set_reported_versions
-from .budget import (BUDGET_ROUNDS, disagreement, face_point_budgets, faces_to_refine, grown_budgets,
-                     quadrature_options)
+from .validity.budget import (BUDGET_ROUNDS, QuadratureOptions, disagreement, face_point_budgets, faces_to_refine,
+                              grown_budgets, quadrature_options)
 from .cubature import GROUPS
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_assessment import assess_face
-from .face_field import FaceField
-from .face_pool import map_faces, resolve_jobs
+from .geometry.face_field import FaceField
+from ..core.processes import map_faces, resolve_jobs
 from .face_result import FaceAssessment
-from .face_setup import set_up_or_none, set_up_until
-from .left_out import LeftOutFace, evaluated_faces, left_out_face, mark_left_out
-from .loading import BRepInput, load_brep
-from .metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
-from .occ_records import patch_count
-from .provenance import occ_face_area, shape_boxes, shape_provenance
-from .record_reader import ReadInChild
+from .face_setup import FaceSetup, set_up_or_none, set_up_until
+from .validity.left_out import LeftOutFace, evaluated_faces, left_out_face, left_out_qualification
+from .reading.loading import BRepInput, load_brep
+from .validity.metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
+from .reading.occ_records import patch_count
+from .reading.provenance import occ_face_area, shape_boxes, shape_provenance
+from .reading.record_reader import ReadInChild
 from .recorded_shape import RecordedShape
 
 
@@ -54,7 +56,7 @@ class BrepRun:
     loaded BRepInput (LoadedRun); opts: the quadrature options (budget.quadrature_options,
     with audit); progress(fraction, message); started: perf_counter() at the start; the
     caller's with_fields, display_deflection, cross_checks and jobs. The stages add: n_jobs
-    (face_pool.resolve_jobs), cost (each face's patch count), setups (each face's FaceSetup
+    (processes.resolve_jobs), cost (each face's patch count), setups (each face's FaceSetup
     made here, or None), size (the bounding-box diagonal), occ_areas (OpenCascade's face
     areas where known here), ref (the reference length), thresholds, deflection (of the
     display tessellation; None without fields), samples (display.sample_faces), weights
@@ -65,7 +67,7 @@ class BrepRun:
     """
 
     shape: object
-    opts: dict
+    opts: QuadratureOptions
     progress: object
     started: float
     with_fields: bool
@@ -136,7 +138,7 @@ class BrepRun:
             if ready is not None:
                 for s in self.setups:
                     if s is not None:
-                        s.prefetch_until(ready, self.opts["order"], self.in_groups, self.opts["max_depth"])
+                        s.prefetch_until(ready, self.opts.order, self.in_groups, self.opts.max_depth)
         else:
             self.setups = set_up_until(ready, faces, self.cost, self.cross_checks)
 
@@ -188,7 +190,7 @@ class BrepRun:
             return assess_face(number, face, self.thresholds, self.ref.value, self.opts, sub, self.in_groups,
                                self.group_jobs, self.cross_checks, self.setups[i], self.face_budgets[i]).detach()
         except Exception as exc:  # a face OpenCascade or its data cannot give: left out, recorded
-            return left_out_face(number, face, exc, self.setups[i])
+            return left_out_face(number, face, exc, self.setups[i], FaceSetup)
 
     def face_progress(self, i, number):
         """progress(fraction, message) inside face i (its number): its weight's share of the
@@ -212,13 +214,13 @@ class BrepRun:
         point budgets; a finer integration records where it and the earlier one disagree
         beyond their error estimates (budget.disagreement)."""
         results, budgets, faces = self.results, self.face_budgets, self.shape.faces
-        for _ in range(BUDGET_ROUNDS if self.opts["protocol"] != "paper" else 0):
+        for _ in range(BUDGET_ROUNDS if not self.opts.paper else 0):
             ev = [i for i, r in enumerate(results) if not isinstance(r, LeftOutFace)]
-            redo = [ev[k] for k in faces_to_refine([results[i] for i in ev], self.opts["rtol"])]
+            redo = [ev[k] for k in faces_to_refine([results[i] for i in ev], self.opts.rtol)]
             if not redo:
                 break
             grown = grown_budgets([results[i].quad for i in redo], [budgets[i] for i in redo],
-                                  self.opts["point_budget"], sum(results[i].quad.n_points for i in ev))
+                                  self.opts.point_budget, sum(results[i].quad.n_points for i in ev))
             for i, b in zip(redo, grown):
                 budgets[i] = b
             self.progress(0.95, "refining %d face(s) that carry the shape's error: %s"
@@ -274,7 +276,7 @@ class BrepRun:
         rows = face_records(results, integrals, ref.value)
         if left_out:
             rows = sorted(rows + [f.record() for f in left_out], key=lambda r: r["face"])
-            mark_left_out(validity, left_out, integrals.represented_area)
+            qualify_all(validity, left_out_qualification(left_out, integrals.represented_area))
         with self.timed("provenance_s"):
             self.face_provenance(results, rows, validity)
 
@@ -290,12 +292,15 @@ class BrepRun:
                                                               "; ".join(f.reason for f in left_out)))
         self.timings["total_s"] = time.perf_counter() - self.started
         info = dict(self.shape.info)
+        fewer = fewer_faces(info)
+        if fewer is not None:  # the file declares faces its reader did not return
+            qualify_all(validity, fewer)
+            warnings.append(fewer.reason)
         self.provenance["reading"] = self.READING
         self.progress(1.0, "done: %d quadrature points" % points)
         return Assessment(input=info, reference_length=ref, thresholds=th, integrals=integrals,
                           validity=validity, fields=fields, provenance=self.provenance,
-                          options={**opts, "recheck_depth": opts["max_depth"] + 1 if opts["protocol"] == "paper"
-                                   else None,
+                          options={**opts.record(), "recheck_depth": opts.recheck_depth,
                                    "jobs": self.n_jobs,
                                    "group_jobs": min(self.group_jobs, max(f.quad.n_main for f in results)),
                                    "display_deflection": self.deflection,
@@ -315,9 +320,8 @@ class BrepRun:
             names = ", ".join("Face%d (%.2g %% of area, %.2g %% of the |K| integral)"
                               % (c["face"], 100 * c["area_share"], 100 * c["K_share"])
                               for c in prov["concentrated_faces"])
-            for m in ("I_D", "I_D_plus", "I_D_minus"):
-                rec = validity[m]
-                rec.reason = (rec.reason + "; " if rec.reason else "") + "curvature concentrated on " + names
+            qualify_all(validity, Qualification("curvature_concentrated", "curvature concentrated on " + names,
+                                                caution=False), metrics=("I_D", "I_D_plus", "I_D_minus"))
         prov["degenerate_points"] = [{"face": f.number, **f.degenerate.to_dict()} for f in results if f.degenerate]
         prov["quadrature"] = [{"face": f.number, **f.quad.to_dict()} for f in results]
         if self.cross_checks:
@@ -359,9 +363,9 @@ class RecordedRun(BrepRun):
         provenance, with OpenCascade's values, and the display samples on its meshes."""
         with self.timed("provenance_s"):
             late = self.shape.late(self.with_fields, self.display_deflection)
-            self.provenance.update(late["provenance"])
+            self.provenance.update(late.provenance)
             if self.with_fields:
-                self.samples = self.display_samples(late["display"])
+                self.samples = self.display_samples(late.display)
 
 
 @dataclass
@@ -420,12 +424,11 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     bounding-box diagonal; the automatic L_ref always comes from the nodes of a tessellation
     at 2e-2 of it, display.SAMPLE_DEFLECTION); cross_checks: derivatives
     against OpenCascade and the independent area per face; jobs: worker processes for the
-    faces (None: automatic, see face_pool.resolve_jobs; the values do not depend on it).
+    faces (None: automatic, see processes.resolve_jobs; the values do not depend on it).
     """
     try:
         started = time.perf_counter()
-        opts = quadrature_options(order, rtol, max_depth, protocol, depth_limit, point_budget)
-        opts["audit"] = bool(audit)
+        opts = quadrature_options(order, rtol, max_depth, protocol, depth_limit, point_budget, audit)
         run = BrepRun.read(source, faces, opts, progress or null_progress, started, with_fields=with_fields,
                            display_deflection=display_deflection, cross_checks=cross_checks, jobs=jobs)
         with run.timed("display_samples_s"):

@@ -9,9 +9,9 @@ import numpy as np
 from ..core.fields import DistributedFields
 # SAMPLE_DEFLECTION: the deflection of the tessellation whose nodes give the automatic L_ref,
 # with or without display fields, so that L_ref never depends on the display settings
-from .face_pool import ForkedCall
-from .lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401
-from .occ_records import DISPLAY_DEFLECTION, display_mesh  # noqa: F401
+from ..core.processes import ForkedCall
+from .reading.lref_samples import SAMPLE_DEFLECTION, LrefTessellation  # noqa: F401
+from .reading.occ_records import DISPLAY_DEFLECTION, display_mesh  # noqa: F401
 
 
 def face_display_mesh(mesh, field):

@@ -3,13 +3,13 @@ of the face with the neighbourhoods of its degenerate points excluded, each neig
 quadrant through its graded map, grading where a refinement stalled at a knot-grid node,
 the nested-neighbourhood audit of the degenerate set, and the cross-checks."""
 from ..core.progress import null_progress
-from . import singular
-from .cross_checks import face_cross_checks
+from .validity import singular
+from .validity.cross_checks import face_cross_checks
 from .cubature import QUANTITIES, integrate, patch_groups
-from .face_pool import map_forked
+from ..core.processes import map_forked
 from .face_result import CombinedQuadrature, FaceAssessment, final_result
 from .face_setup import FaceSetup
-from .trimmed_domain import TrimmedDomain
+from .geometry.trimmed_domain import TrimmedDomain
 
 #: Tree depth and class-line halvings of a graded neighbourhood quadrant.
 QUADRANT_MAX_DEPTH = 5
@@ -23,14 +23,14 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     """Integrate one face; neighbourhoods of degenerate points and hot spots are integrated
     separately through a graded map (singular.GradedQuadrantField), then audited. With
     groups, a face of many patches is integrated in patch groups (cubature.patch_groups),
-    in group_jobs processes (face_pool.map_forked; the values do not depend on it), and
+    in group_jobs processes (processes.map_forked; the values do not depend on it), and
     this process computes the area cross-check while it waits for the others (unless the
     setup has it). cross_checks: attach face_cross_checks. face: a Part.Face, or a
     recorded_shape.FaceRecord (the same field and domain from its records, and OpenCascade's
     cross-check values). setup: its FaceSetup when already made."""
     s = setup or FaceSetup(face)
     quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, cross_checks, point_budget)
-    for _ in range(STALL_ROUNDS if opts.get("protocol") != "paper" and opts.get("audit", True) else 0):
+    for _ in range(STALL_ROUNDS if not opts.paper and opts.audit else 0):
         # a refinement that stalled at a knot-grid node: graded there and audited (VALID* or
         # SINGULAR), instead of ever smaller cells (paper section 4.3)
         pts = singular.points_from_refinement([final_result(p) for p in quad.parts[:quad.n_main]], s.domain,
@@ -40,11 +40,11 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
         quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, False, point_budget)
     ff, domain, deg, quads, gu, gv = s.ff, s.domain, s.deg, s.quads, s.gu, s.gv
     audits = []
-    if deg and opts.get("audit", True):
+    if deg and opts.audit:
         totals = dict(quad.values)
         for p in deg.audited_points:
             audits.append(singular.audit_point(ff, p, quads, totals, lref, thresholds.tau_H,
-                                               thresholds.tau_K, order=opts["order"]))
+                                               thresholds.tau_K, order=opts.order))
         for side in deg.sides:
             audits.append(singular.probe_side(ff, domain, side, s.u_breaks, s.v_breaks))
     f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
@@ -57,15 +57,15 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
 def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_check, point_budget):
     """CombinedQuadrature of a set-up face (FaceSetup s): its patch groups (in group_jobs
     processes when groups), then each neighbourhood quadrant through its graded map. With
-    the budget protocol (opts["protocol"] != "paper") the groups refine by their error down
-    to opts["depth_limit"] within point_budget points (split between the groups); with the
+    the budget protocol (not opts.paper) the groups refine by their error down
+    to opts.depth_limit within point_budget points (split between the groups); with the
     paper's, to max_depth with a recheck one level deeper (section 5.2)."""
     ff, domain, quads, gu, gv, main_field = s.ff, s.domain, s.quads, s.gu, s.gv, s.main_field
-    kw = dict(order=opts["order"], rtol=opts["rtol"], max_depth=opts["max_depth"], recheck=True)
+    kw = dict(order=opts.order, rtol=opts.rtol, max_depth=opts.max_depth, recheck=True)
     groups = patch_groups(s.patches.size) if groups else [None]
     mkw = dict(kw)
-    if opts.get("protocol") != "paper":
-        mkw.update(depth_limit=opts["depth_limit"],
+    if not opts.paper:
+        mkw.update(depth_limit=opts.depth_limit,
                    point_budget=None if point_budget is None else max(1, int(point_budget) // len(groups)))
     prefetch = s.prefetch if s.prefetch is not None and len(s.prefetch) == len(groups) else [None] * len(groups)
 
@@ -81,9 +81,9 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     # graded map makes its integrand smooth, so a shallow tree resolves it.
     main_values = {k: sum(final_result(p).values[k] for p in parts) for k in QUANTITIES}
     share = {k: abs(v) / (2.0 * max(len(quads), 1)) for k, v in main_values.items()}
-    qkw = dict(kw, max_depth=min(opts["max_depth"], QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
-    if opts.get("protocol") != "paper":  # refined by the error too, within a share of the face's points
-        qkw.update(depth_limit=opts["depth_limit"],
+    qkw = dict(kw, max_depth=min(opts.max_depth, QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
+    if not opts.paper:  # refined by the error too, within a share of the face's points
+        qkw.update(depth_limit=opts.depth_limit,
                    point_budget=None if point_budget is None else max(1, int(point_budget) // 2))
     for q in quads:
         parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,

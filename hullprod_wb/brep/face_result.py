@@ -78,7 +78,6 @@ class FaceAssessment:
         """Drop the face field and the trimmed domain (OpenCascade objects), keeping what the
         records need, so that the assessment can leave a worker process. Returns self."""
         d = self.domain
-        self.domain = DomainSummary(bool(d.is_rectangle), getattr(d, "fallback", None),
-                                    list(getattr(d, "repairs", None) or []))
+        self.domain = DomainSummary(bool(d.is_rectangle), d.fallback, list(d.repairs))
         self.ff = None
         return self

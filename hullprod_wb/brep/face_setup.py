@@ -7,17 +7,13 @@ import time
 import numpy as np
 
 from ..core.errors import InputError
-from . import singular
-from .cross_checks import area_rule
+from .validity import singular
+from .validity.cross_checks import area_rule
 from .cubature import NodePrefetch, patch_groups
-from .face_field import FaceField
-from .patches import Patches
+from .geometry.face_field import FaceField
+from .cubature.patches import Patches
 from .recorded_shape import FaceRecord
-from .trimmed_domain import TrimmedDomain, polygon_domain
-
-
-class EmptyDomain(Exception):
-    """A face whose trimmed domain has no extent in u or v: it carries no area."""
+from .geometry.trimmed_domain import EmptyDomain, TrimmedDomain, polygon_domain
 
 
 class _NeedsPartFace(Exception):
@@ -36,9 +32,7 @@ class FaceSetup:
         self.recorded = isinstance(face, FaceRecord)
         ff = face.field() if self.recorded else None
         domain = face.domain(ff.evaluator) if self.recorded else None
-        if domain is not None:
-            domain.fallback = None
-        else:
+        if domain is None:
             if self.recorded:  # a domain that needs OpenCascade itself: the face, read here
                 if not part_face:
                     raise _NeedsPartFace()
@@ -47,10 +41,8 @@ class FaceSetup:
             ff = FaceField(face)
             try:
                 domain = TrimmedDomain.from_face(face)
-                domain.fallback = None
             except InputError as exc:
-                domain = polygon_domain(face)
-                domain.fallback = " ".join(str(exc).split())
+                domain = polygon_domain(face, " ".join(str(exc).split()))
         self.ff, self.domain = ff, domain
         if not (domain.u_range[1] > domain.u_range[0] and domain.v_range[1] > domain.v_range[0]):
             raise EmptyDomain("u in [%r, %r], v in [%r, %r]" % (*domain.u_range, *domain.v_range))

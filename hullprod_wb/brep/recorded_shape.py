@@ -9,9 +9,9 @@ surface type, a p-curve the records do not describe) and a face whose trimmed do
 needs OpenCascade itself (a p-curve whose conversion fails its check) are rebuilt from
 that data in the process that integrates them (part_face); no file is read here.
 """
-from .face_field import FaceField
-from .surface_eval import SurfaceEvaluator
-from .trimmed_domain import TrimmedDomain
+from .geometry.face_field import FaceField
+from .geometry.surface_eval import SurfaceEvaluator
+from .geometry.trimmed_domain import TrimmedDomain
 
 
 class FaceRecord:
@@ -21,11 +21,11 @@ class FaceRecord:
 
     def __init__(self, rec, shape):
         self.rec, self.shape = rec, shape
-        self.number = rec["number"]
-        self.surface_type = rec["surface_type"]
-        self.patch_count = rec["patch_count"]
-        self.occ_reference = rec["occ_reference"]
-        self.as_data = rec.get("kind") == "part"  # sent as OpenCascade's data, not as numbers
+        self.number = rec.number
+        self.surface_type = rec.surface_type
+        self.patch_count = rec.patch_count
+        self.occ_reference = rec.occ_reference
+        self.as_data = rec.as_data  # sent as OpenCascade's data, not as numbers
 
     def field(self):
         if self.as_data:
@@ -40,7 +40,7 @@ class FaceRecord:
     def part_face(self):
         """The Part.Face, rebuilt from the data the reading process sent (FreeCAD is loaded
         here for it)."""
-        return self.shape.part_faces("part_faces" if self.as_data else "described_faces")[self.rec["part"]]
+        return self.shape.part_faces("part_faces" if self.as_data else "described_faces")[self.rec.part]
 
 
 class RecordedShape:
@@ -50,13 +50,13 @@ class RecordedShape:
     of them is there."""
 
     def __init__(self, reader):
-        first = reader.frame(0)
+        first = reader.faces_frame()
         self.reader = reader
         self.path, self.selection = reader.path, reader.faces
-        self.info, self.units = first["info"], first["units"]
-        self.size, self.read_seconds = first["size"], first["read_seconds"]
-        self.versions = first["versions"]
-        self.faces = [(r["number"], FaceRecord(r, self)) for r in first["faces"]]
+        self.info, self.units = first.info, first.units
+        self.size, self.read_seconds = first.size, first.read_seconds
+        self.versions = first.versions
+        self.faces = [(r.number, FaceRecord(r, self)) for r in first.faces]
         self._late = None
         self._part_faces = {}
 
@@ -64,34 +64,34 @@ class RecordedShape:
         """The faces the reading process sent as data under key ("part_faces" in the first
         frame, "described_faces" in the second), as Part.Face objects, rebuilt once."""
         if key not in self._part_faces:
-            from .loading import faces_from_bytes
-            frame = self.reader.frame(0 if key == "part_faces" else 1)
-            self._part_faces[key] = faces_from_bytes(frame[key])
+            from .reading.loading import faces_from_bytes
+            frame = self.reader.faces_frame() if key == "part_faces" else self.reader.lref_frame()
+            self._part_faces[key] = faces_from_bytes(getattr(frame, key))
         return self._part_faces[key]
 
     def lref_ready(self):
         """Whether lref_samples() would return without waiting for the reading process."""
-        return self.reader.ready(1)
+        return self.reader.lref_ready()
 
     def lref_samples(self):
         """dict(points, triangles, node_area) of the automatic-L_ref tessellation
         (display.tessellation_samples)."""
         from .display import node_samples
-        frame = self.reader.frame(1)
-        return node_samples(frame["lref_points"], frame["lref_triangles"])
+        frame = self.reader.lref_frame()
+        return node_samples(frame.lref_points, frame.lref_triangles)
 
     def late(self, with_fields, display_deflection):
-        """dict(provenance, and with fields display (per face: occ_records.display_mesh) and
-        display_deflection), from the reading process (from another one, read for them, when
+        """The record_reader.LateFrame (provenance, and with fields display, per face
+        occ_records.display_mesh, and display_deflection) from the reading process (from another one, read for them, when
         this one was started without fields)."""
         if self._late is None:
-            frame = self.reader.frame(2)
+            frame = self.reader.late_frame()
             self.reader.close()
-            if with_fields and "display" not in frame:
-                from .record_reader import ReadInChild
+            if with_fields and frame.display is None:
+                from .reading.record_reader import ReadInChild
                 again = ReadInChild(self.path, self.selection, True, display_deflection)
                 try:
-                    frame = again.frame(2)
+                    frame = again.late_frame()
                 finally:
                     again.close()
             self._late = frame

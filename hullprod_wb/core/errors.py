@@ -16,4 +16,4 @@ class FreeCADUnavailable(InputError):
 class ReaderDied(InputError):
     """The process reading a file with OpenCascade ended (an exit or a signal) before it
     sent what it read: the message names the file, what the reader did and the likely
-    cause (brep.reader_process)."""
+    cause (brep.reading.reader_process)."""

@@ -435,21 +435,15 @@ def check_file(path, fmt):
             data.close()
 
 
-def mark_fewer_faces(validity, info):
-    """Qualify the metric records (validity: name -> MetricValidity) of a BRep whose reader
-    returned fewer faces (info['face_count']) than its file declares
-    (info['declared']['declared_faces']): CAUTION from VALID or VALID*, with the counts.
-    Returns whether it did."""
-    from .validity import ESTABLISHED, Status
+def fewer_faces(info):
+    """The Qualification (core.validity) of the metrics of a BRep whose reader returned fewer
+    faces (info['face_count']) than its file declares (info['declared']['declared_faces']):
+    CAUTION from VALID or VALID*, with the counts; None when it returned them all."""
+    from .validity import Qualification
     declared = (info.get("declared") or {}).get("declared_faces")
     read = info.get("face_count")
     if not declared or read is None or read >= declared:
-        return False
+        return None
     reason = ("the reader returned %d faces of the %d the file declares (%s): part of the file was not read"
               % (read, declared, info["declared"].get("declared_faces_rule", "surface entities")))
-    for rec in validity.values():
-        rec.evidence["faces_declared"], rec.evidence["faces_read"] = declared, read
-        if rec.status in ESTABLISHED and rec.status != Status.CAUTION:
-            rec.status, rec.code = Status.CAUTION, "fewer_faces_than_declared"
-        rec.reason = (rec.reason + "; " if rec.reason else "") + reason
-    return True
+    return Qualification("fewer_faces_than_declared", reason, {"faces_declared": declared, "faces_read": read})

@@ -1,17 +1,18 @@
 """Threads for array passes (the mesh path's, the reference length's moments): numpy's array
 loops and scipy's sparse constructions release the GIL, so passes over disjoint parts of
-the arrays run side by side on the cores (the command's machine: 2 at most are used)."""
-import os
+the arrays run side by side on the cores (MAX_THREADS at most)."""
 from concurrent.futures import ThreadPoolExecutor
+
+from .processes import available_cpus
+
+#: Threads of a block pass at most: the passes are bound by memory bandwidth beyond two.
+MAX_THREADS = 2
 
 
 def default_threads():
-    """Worker threads for the block passes: up to 2, never more than the CPUs available."""
-    try:
-        ncpu = len(os.sched_getaffinity(0))
-    except AttributeError:
-        ncpu = os.cpu_count() or 1
-    return max(1, min(2, ncpu))
+    """Worker threads for the block passes: up to MAX_THREADS, never more than the CPUs
+    available (processes.available_cpus)."""
+    return max(1, min(MAX_THREADS, available_cpus()))
 
 
 def blocks(m, size):

@@ -46,6 +46,11 @@ SEVERITY = [Status.SINGULAR, Status.UNCONVERGED, Status.NOT_EVALUATED, Status.ME
             Status.CAUTION, Status.VALID_STAR, Status.VALID, Status.NOT_APPLICABLE]
 
 
+def joined_reason(reason, more):
+    """The sentence more after reason, '; ' between them (either may be empty)."""
+    return (reason + "; " if reason else "") + more
+
+
 def finite_or_none(x):
     """float(x) when finite, else None (JSON never carries NaN or inf)."""
     try:
@@ -82,7 +87,7 @@ class MetricValidity:
             if self.status in ESTABLISHED:
                 # A non-finite value can never be established.
                 self.status = Status.UNCONVERGED
-                self.reason = (self.reason + "; " if self.reason else "") + "value is not finite"
+                self.reason = joined_reason(self.reason, "value is not finite")
                 self.code = self.code or "non_finite"
             v = None
         self.value = v
@@ -90,6 +95,15 @@ class MetricValidity:
     @property
     def established(self):
         return self.status in ESTABLISHED
+
+    def qualify(self, q):
+        """Apply the Qualification q: its evidence entries added; CAUTION with q.code where the
+        status is VALID or VALID* (q.caution); q.reason (when given) after the reason."""
+        self.evidence.update(q.evidence)
+        if q.caution and self.status in ESTABLISHED and self.status != Status.CAUTION:
+            self.status, self.code = Status.CAUTION, q.code
+        if q.reason:
+            self.reason = joined_reason(self.reason, q.reason)
 
     def to_dict(self):
         return {
@@ -101,6 +115,28 @@ class MetricValidity:
             "valid_area": finite_or_none(self.valid_area),
             "evidence": self.evidence,
         }
+
+
+@dataclass(frozen=True)
+class Qualification:
+    """What qualifies a metric's validity beyond its own rule, the one way a record is changed
+    after it is made (MetricValidity.qualify, qualify_all): code, the machine-readable name
+    of the qualification, given to a VALID or VALID* record that becomes CAUTION (caution);
+    reason, the sentence added to the record's reason (empty: none); evidence, the entries
+    added to its evidence."""
+
+    code: str
+    reason: str = ""
+    evidence: dict = field(default_factory=dict)
+    caution: bool = True
+
+
+def qualify_all(validity, q, metrics=None):
+    """Apply the Qualification q to the records of validity (name -> MetricValidity), or to
+    those of metrics only."""
+    for name, rec in validity.items():
+        if metrics is None or name in metrics:
+            rec.qualify(q)
 
 
 def worst(statuses):

@@ -12,7 +12,7 @@ from ..app import preferences
 from ..app.analysis import make_analysis, record_planar
 from ..app.assessment_process import AssessmentProcess, WorkerFailed
 from ..app.planar import planar_faces
-from ..brep.budget import FACE_POINT_FLOOR, PROTOCOLS
+from ..brep.validity.budget import FACE_POINT_FLOOR, PROTOCOLS
 from ..core.errors import InputError
 from . import dialogs
 from .qt import QtCore, QtGui, QtWidgets

@@ -88,7 +88,7 @@ def tessellation_ladder(source, lref=None, linear=LINEAR_DEFLECTIONS, angular=AN
     Returns (levels, brep input, ReferenceLength): levels is a list of dicts with name,
     linear_deflection (fraction of L_ref), angular_deflection, mesh (V, F).
     """
-    from ..brep.loading import load_brep
+    from ..brep.reading.loading import load_brep
     linear, angular = list(linear), list(angular)
     if len(linear) != len(angular) or len(linear) < 2:
         raise InputError("the ladder needs as many linear as angular deflections, at least two "

@@ -35,7 +35,7 @@ def representation_study(source, mesh=None, lref=None, mesh_lref=None, h_f=DEFAU
     dict: study, input, rows [BRep, mesh], delta (percent), class_redistribution, d1.
     """
     from ..api import assess
-    from ..brep.loading import load_brep
+    from ..brep.reading.loading import load_brep
     progress = progress or null_progress
     progress(0.0, "native BRep assessment")
     b = brep_assessment

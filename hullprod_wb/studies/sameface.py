@@ -128,7 +128,7 @@ def compare_on_grid(evaluator, rect, n, pattern, curvature=None, align_creases=T
     reasons: {key: why its value is null} for every null value.
     Raises InputError when the creases outnumber the panels.
     """
-    from ..brep.differential import surface_differentials
+    from ..brep.geometry.differential import surface_differentials
     from .sameface_diagnosis import close_pair_lines, knot_structure, level_measures
     curvature = _curvature_function(curvature)
     c_u, c_v = crease_lines(evaluator, rect) if align_creases else (np.empty(0), np.empty(0))
@@ -272,7 +272,7 @@ def sameface_face(face, levels=SAMEFACE_LEVELS, patterns=PATTERNS, inset=DEFAULT
     diagnosis (:func:`.sameface_diagnosis.face_diagnosis`), reasons).
     A face with no comparable level is returned with a 'skipped' reason.
     """
-    from ..brep.surface_eval import SurfaceEvaluator
+    from ..brep.geometry.surface_eval import SurfaceEvaluator
     from .sameface_diagnosis import face_diagnosis, knot_structure
     progress = progress or null_progress
     levels = sorted(int(n) for n in levels)
@@ -344,7 +344,7 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
     headline_face (largest area), largest_K_face (largest |K| share), table (flat rows);
     every null value of a record has its reason in the record's ``reasons``.
     """
-    from ..brep.loading import load_brep
+    from ..brep.reading.loading import load_brep
     from .sameface_diagnosis import diagnosis_settings
     from .sameface_headline import face_shares, headline_face, largest_K_face
     progress = progress or null_progress

@@ -17,7 +17,7 @@ def _inside_function(face):
     Uses the exact trimmed domain (p-curves); when it cannot be built, OpenCascade's
     per-point face classifier (Part.Face.isPartOfDomain).
     """
-    from ..brep.trimmed_domain import TrimmedDomain
+    from ..brep.geometry.trimmed_domain import TrimmedDomain
     try:
         domain = TrimmedDomain.from_face(face)
     except InputError as exc:
@@ -124,7 +124,7 @@ def abs_K_integral(face, evaluator, inside, m=RASTER):
     """Midpoint estimate of the integral of |K| dA over the face's trimmed domain: the m x m
     cells of its parameter range whose centres are inside and regular (the raster of
     :func:`inset_rectangle`); None when there are none."""
-    from ..brep.differential import surface_differentials
+    from ..brep.geometry.differential import surface_differentials
     U0, U1, V0, V1 = (float(x) for x in face.ParameterRange)
     du, dv = (U1 - U0) / m, (V1 - V0) / m
     uc, vc = grid_parameters((U0 + du / 2, U1 - du / 2, V0 + dv / 2, V1 - dv / 2), m - 1)

@@ -7,21 +7,29 @@ points), int |K| J, int max(K,0) J, int max(-K,0) J over the valid points, and t
 curvature-class areas of eq:curvature_classes.
 
 The domain is cut into boundary-fitted patches mapped from the unit square
-(hullprod_wb.brep.patches: strips lo(u) <= v <= hi(u) between breakpoints, knot lines and the
+(patches: strips lo(u) <= v <= hi(u) between breakpoints, knot lines and the
 trim curves' crossings of the knot lines), on which the integrands are smooth, so that
 Gauss-Legendre converges fast on the exact trimmed region. One concept a module:
 
 - settings: the quantities and the constants of every step;
 - result: QuadratureResult, the integrals with their evidence;
 - cells: the quadtree's cells, their nodes and the field at them;
-- driver: the refinement (quadtree levels, acceptance against the error budget, the point
-  budget) and integrate();
-- lines: mixed cells integrated on lines (crossings of the level curves, exact integrals on
-  interpolants);
+- driver: the refinement (Integration: one loop over the quadtree levels, each level the
+  named steps accept own, evaluate children, tree candidates, line candidates, accept) and
+  integrate();
+- lines: mixed cells integrated on lines (interpolants, exact integrals on them, Gauss-Kronrod
+  in sigma), functions of a LineSetting and the MixedCells;
+- crossings: the field along lines and where the level curves cross them;
 - cuts: where lines are cut in sigma (edge crossings, tangencies, corners of the flat
   region, islands);
-- pieces: the piece bookkeeping that lines and cuts share;
-- fixed_rule: fixed tensor rules on the patches (independent checks) and patch groups.
+- pieces: what lines and cuts share (LineSetting, MixedCells, Pieces and their bookkeeping);
+- fixed_rule: fixed tensor rules on the patches (independent checks) and patch groups;
+- patches: the boundary-fitted patches of a domain and their maps from the unit square;
+- gauss_rules, cell_interpolant, roots: Gauss-Legendre and Gauss-Kronrod rules, tensor
+  Legendre interpolants over mixed cells, vectorised bracketed root finding.
+
+Self-contained: imports only core and itself (a domain is anything with the attributes of
+patches.DOMAIN_ATTRIBUTES, in practice geometry.trimmed_domain.TrimmedDomain).
 """
 from .driver import integrate
 from .cells import NodePrefetch, cell_nodes, tensor_cells, values_at_nodes

@@ -6,9 +6,8 @@ acceptance of cells against an error budget."""
 import numpy as np
 
 from ...core.errors import InputError
-from ..gauss_rules import gauss_nodes
-from ..nurbs import grid_points
-from ..patches import Patches
+from .gauss_rules import gauss_nodes
+from .patches import Patches
 from .settings import ACCEPT_FRACTION, AREA, CLASS_AREAS, MIN_INITIAL_CELLS, PREFETCH_CELLS
 
 
@@ -17,13 +16,21 @@ _BOXES = ("pid", "s0", "s1", "t0", "t1")
 _ARRAYS = _BOXES + ("Q", "err_e", "mixed", "peak", "pmeas", "sJ", "sK", "sH", "sreg", "row", "depth", "err")
 
 
+def grid_points(u, v):
+    """The points of the tensor grids u (n, a) x v (n, b), (u[c, i], v[c, j]), as two flat
+    arrays (n a b,) in [c, i, j] order."""
+    u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+    shape = (u.shape[0], u.shape[1], v.shape[1])
+    return np.broadcast_to(u[:, :, None], shape).ravel(), np.broadcast_to(v[:, None, :], shape).ravel()
+
+
 class CellSet:
     """Cells of the quadtree, one row a cell in every array (None: not known yet), sliced and
     joined as whole arrays (take, concat):
 
     - pid (n,) int: each cell's patch; s0, s1, t0, t1 (n,): its box [s0, s1] x [t0, t1] in
       the patch's (sigma, t) (always given);
-    - from the evaluation (_Integrator._eval_cells): Q (n, 9) integrals of QUANTITIES (Gauss
+    - from the evaluation (Integration.evaluate): Q (n, 9) integrals of QUANTITIES (Gauss
       sums; a unit's: its children's sums or lines), err_e (n, 9) |Q - Q_embedded|
       (gauss_rules.embedded_weights), mixed (n,) bool: the cell may meet a class boundary or
       K = 0 (a unit: one of its children), peak (n, 3) u, v, |K| J at the sample of largest
@@ -79,7 +86,7 @@ class CellSet:
         return out
 
 
-class _Field:
+class CountedField:
     """Calls the user's field and normalises its output to (J, K, H, regular) arrays."""
 
     def __init__(self, field):
@@ -123,7 +130,7 @@ class _Field:
         return np.where(bad, 0.0, J), K, H, reg
 
 
-def _greedy_accept(err, budget, group=None):
+def greedy_accept(err, budget, group=None):
     """Cells accepted by spending at most ACCEPT_FRACTION of an error budget greedily.
 
     err (n, q) error estimates; budget (q,), or (g, q) per group with group (n,) int.
@@ -152,7 +159,7 @@ def _greedy_accept(err, budget, group=None):
     return out
 
 
-def _row_sums(rows, values, n):
+def row_sums(rows, values, n):
     """Sums (n, q) of the rows (k, q) of values that belong to each index of rows (k,)."""
     out = np.empty((n, values.shape[1]))
     for j in range(values.shape[1]):
@@ -160,7 +167,7 @@ def _row_sums(rows, values, n):
     return out
 
 
-def _share_area_error(err, Q):
+def share_area_error(err, Q):
     """err (n, 9) with the class areas' columns set to the area's error shared by each
     cell's class fractions (from its integrals Q (n, 9)): outside mixed cells a class area
     is the area of the cell's one class. A fraction is at most 1 (a cell of no area in
@@ -170,10 +177,10 @@ def _share_area_error(err, Q):
     return err
 
 
-def _patch_cells(patches, patch_range=None, max_depth=None):
+def patch_cells(patches, patch_range=None, max_depth=None):
     """The quadtree's first cells (a CellSet of boxes) and their level: the
     whole of each patch of patch_range (start, stop) (default all), at level 0, halved in
-    both directions (_children) until there are MIN_INITIAL_CELLS of them, at most to level
+    both directions (child_cells) until there are MIN_INITIAL_CELLS of them, at most to level
     max_depth - 1 (None: no halving); InputError when the range holds no patch."""
     pid = np.arange(patches.size)
     if patch_range is not None:
@@ -184,11 +191,11 @@ def _patch_cells(patches, patch_range=None, max_depth=None):
     z, o = np.zeros(pid.size), np.ones(pid.size)
     cells, level = CellSet(pid, z, o, z, o), 0
     while max_depth is not None and cells.size < MIN_INITIAL_CELLS and level < max_depth - 1:
-        cells, level = _children(cells), level + 1
+        cells, level = child_cells(cells), level + 1
     return cells, level
 
 
-def _children(a):
+def child_cells(a):
     """The four children (a CellSet of (4n,) boxes) of the cells a (CellSet), each cell's
     children consecutive: (low, low), (high, low), (low, high), (high, high) in (sigma, t)."""
     sm = 0.5 * (a.s0 + a.s1)
@@ -213,12 +220,12 @@ class NodePrefetch:
 
     def __init__(self, domain, field, order=5, u_breaks=(), v_breaks=(), patch_range=None, patches=None,
                  max_depth=5):
-        self.f = _Field(field)
+        self.f = CountedField(field)
         self.order = int(order)
         self.x, _ = gauss_nodes(self.order)
         self.patches = patches if patches is not None else Patches.of(domain, u_breaks, v_breaks)
-        self.cells = [_patch_cells(self.patches, patch_range, int(max_depth))[0]]
-        self.cells.append(_children(self.cells[0]))
+        self.cells = [patch_cells(self.patches, patch_range, int(max_depth))[0]]
+        self.cells.append(child_cells(self.cells[0]))
         self.values = []  # per level evaluated: J, K, H, regular (n, o, o)
         self.nodes = []  # and its nodes: U, V (n, o, o), du, lo, hi (n, o) (cell_nodes)
         self.calls = []  # and the field calls it took

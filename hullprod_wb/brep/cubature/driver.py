@@ -27,27 +27,27 @@ A cell is mixed when its samples do not all have one class, or when the sampled 
 parent cell with a mixed child are line integrals (lines).
 """
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from ...core.errors import InputError
 from ...core.thresholds import check_positive, classify
-from ..cell_interpolant import grid_matrices
-from ..gauss_rules import embedded_weights, gauss_nodes
-from ..patches import Patches
-from ..trimmed_domain import TrimmedDomain
-from .cells import (CellSet, _Field, _children, _greedy_accept, _patch_cells, _share_area_error, cell_nodes,
+from .cell_interpolant import grid_matrices
+from .gauss_rules import embedded_weights, gauss_nodes
+from .patches import Patches, check_domain
+from .cells import (CellSet, CountedField, child_cells, greedy_accept, patch_cells, share_area_error, cell_nodes,
                     tensor_cells, values_at_nodes)
+from .lines import integrate_lines, interpolants, turn_cells
+from .pieces import LineSetting
 from .result import QuadratureResult
-from .settings import (AREA, K_INTEGRALS, LEVEL_ROW, LINE_K, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS,
+from .settings import (AREA, K_INTEGRALS, LINE_K, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS,
                        N_SMOOTH, OWN_SAFETY,
                        QUANTITIES, STRADDLE_MARGIN, TREE_SAFETY, ZERO_CHARGE_PARTS, ZERO_CHARGE_SHARE,
                        ZERO_SCALE)
-from .cuts import CutSearch
-from .lines import LineIntegration
 
 
-class _Integrator(LineIntegration, CutSearch):
+class Integration:
     """State of one adaptive integration (quadtree over the patches, lines in mixed cells).
 
     Units of the result are accepted parent cells: their four children's Gauss sums give
@@ -59,24 +59,22 @@ class _Integrator(LineIntegration, CutSearch):
                  v_breaks, progress, patch_range=None, prefetch=None, max_depth=None, reference=None,
                  lines=True, point_budget=None):
         self.prefetch = prefetch
-        self.f = _Field(field)
+        self.f = CountedField(field)
         self.tau_H, self.tau_K = tau_H, tau_K
-        # constants the level functions subtract from their field row (LEVEL_ROW)
-        self.level_offset = np.array([tau_K, -tau_K, tau_H, -tau_H, 0.0])
         self.order, self.rtol = order, rtol
         self.class_max_depth = class_max_depth
         self.lines = bool(lines)
-        # K = 0 cuts the lines only once the bounds charged instead would not fit
-        # (_line_values, refine_to); zero_charge: the bounds charged in accepted cells
-        self.resolve_zero = False
+        # zero_charge: the bounds charged for K = 0 in accepted cells (lines.line_values)
         self.zero_charge = 0.0
         self.progress = progress
         self.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
         self.x, self.w = gauss_nodes(order)
         self.w_embedded = embedded_weights(self.x)
-        self._grid_inverse, self._parent_vander = grid_matrices(self.x)
         self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
-        self.active, level = _patch_cells(self.patches, patch_range, max_depth)
+        # what the lines read; K = 0 cuts them only once the bounds charged instead would
+        # not fit (_lines_of)
+        self.ls = LineSetting(self.patches, self.f, tau_H, tau_K, class_max_depth, *grid_matrices(self.x))
+        self.active, level = patch_cells(self.patches, patch_range, max_depth)
         self.max_depth = max_depth if max_depth is not None else 0
         if prefetch is not None and (prefetch.order != order or not all(
                 np.array_equal(getattr(prefetch.cells[0], k), getattr(self.active, k))
@@ -92,7 +90,7 @@ class _Integrator(LineIntegration, CutSearch):
         self.pending = None  # units left unaccepted at the last level
         self.budget_spent = False  # refinement stopped by the point budget (refine_to)
         self.point_budget = None if point_budget is None else int(point_budget)
-        self.active = self._eval_cells(self.active, self._prefetched(0))
+        self.active = self.evaluate(self.active, self._prefetched(0))
         if prefetch is not None:
             self.active = self.active.with_(row=np.arange(P))  # the first cell of each (_prefetched)
         self.history = []
@@ -103,12 +101,6 @@ class _Integrator(LineIntegration, CutSearch):
         """Append the global estimate (accepted cells plus active cells' Gauss sums)."""
         Q = sum((p.Q.sum(0) for p in self.accepted), self.active.Q.sum(0))
         self.history.append({q: float(x) for q, x in zip(QUANTITIES, Q)})
-
-    def _thresholds(self, K, H):
-        """(n, 5) level functions K - tau_K, K + tau_K, H - tau_H, H + tau_H, K: the field of
-        LEVEL_ROW minus level_offset."""
-        rows = (None, K, H)
-        return np.stack([rows[r] for r in LEVEL_ROW], -1) - self.level_offset
 
     def _integrands(self, J, K, H, reg):
         """(..., 9) integrands of QUANTITIES at samples (...)."""
@@ -136,7 +128,7 @@ class _Integrator(LineIntegration, CutSearch):
         self.f.n_calls += p.calls[level]
         return vals, nodes
 
-    def _eval_cells(self, c, prefetched=None):
+    def evaluate(self, c, prefetched=None):
         """Tensor Gauss rule on the (sigma, t) cells c (CellSet), with the field's values at its
         nodes and the nodes when given (_prefetched; else computed).
 
@@ -210,7 +202,10 @@ class _Integrator(LineIntegration, CutSearch):
         """Refine level by level until converged, depth_limit is reached, or (point_budget
         given) the next level's children would take the field points evaluated beyond the
         point budget. Only the cells left unaccepted are refined, so the depth grows where
-        the error estimates stay large (a singular corner costs four cells a level)."""
+        the error estimates stay large (a singular corner costs four cells a level). Each
+        level: cells accepted on their own Gauss sums, the others' children evaluated, the
+        parents' candidates on the smooth quantities, the candidates' lines, and the
+        candidates accepted on every quantity against the budget left."""
         per_cell = self.order * self.order
         point_budget = self.point_budget
         while self.active.size and self.depth < depth_limit:
@@ -223,7 +218,7 @@ class _Integrator(LineIntegration, CutSearch):
                     and self.pending is not None:
                 self.budget_spent = True
                 break
-            ch = self._eval_cells(_children(a), self._prefetched(1, a.row))
+            ch = self.evaluate(child_cells(a), self._prefetched(1, a.row))
             self.depth += 1
             # the last level: the depth limit, or the point budget would not hold the next
             # level's children (at most four a cell refined here)
@@ -231,93 +226,128 @@ class _Integrator(LineIntegration, CutSearch):
                 point_budget is not None and self.f.n_points + 16 * na * per_cell > point_budget)
             if last and self.depth < depth_limit:
                 self.budget_spent = True
-            pk = ch.peak.reshape(na, 4, 3)
-            unit = a.boxes().with_(Q=ch.Q.reshape(na, 4, NQ).sum(1), mixed=ch.mixed.reshape(na, 4).any(1),
-                                   pmeas=ch.pmeas.reshape(na, 4).sum(1),
-                                   peak=pk[np.arange(na), pk[:, :, 2].argmax(1)], depth=np.full(na, self.depth))
-            err = _share_area_error(np.abs(a.Q - unit.Q), unit.Q)
-            mixed = unit.mixed
-            err_tree = err.copy()
-            if self.lines:
-                err_tree[mixed, K_INTEGRALS] = 0.0  # K integrals of mixed cells: from the lines
+            unit, err = self._parent_units(a, ch)
             Qtot = sum((p.Q.sum(0) for p in self.accepted), unit.Q.sum(0))
             tol = self._tolerance(Qtot)
             budget = tol - self.err_acc
-            tree_budget = TREE_SAFETY * budget[:N_SMOOTH]
-            if np.all(err_tree[:, :N_SMOOTH].sum(0) <= tree_budget):
-                accept = np.ones(na, bool)
-            else:
-                accept = _greedy_accept(err_tree[:, :N_SMOOTH], tree_budget)
-            # refinement driven by the error (point_budget given): a level whose cells may fit
-            # the whole budget (the mixed cells' line quantities still to come) is tried as
-            # the last one: all its cells are candidates, the mixed ones on lines (above
-            # max_depth, those whose interpolant is not yet accurate are split instead of
-            # taking lines of the field)
-            fit_trial = False
-            if point_budget is not None and not last and self.lines:
-                hope = err.copy()
-                hope[mixed, LINE_Q] = 0.0
-                fit_trial = last = bool(np.all(hope.sum(0) <= budget))
-            lined = mixed & (accept | last) & self.lines
-            split = np.zeros(na, bool)  # mixed cells split for their interpolants' sake
-            if lined.any():
-                P_tot = sum((p.pmeas.sum() for p in self.accepted), unit.pmeas.sum())
-                sub = unit.take(lined)
-                share = self._share(sub.Q, sub.pmeas, Qtot, P_tot)
-                lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
-                interp = self._interpolants(a, ch, lined, sub, lbudget)
-                if (not last or (fit_trial and self.depth < self.max_depth)) and not interp.use.all():
-                    # a cell whose interpolant is not yet accurate is split rather than
-                    # integrated on lines of the field: its children's interpolants converge
-                    # fast, and four children cost less than the lines of one cell
-                    keep = interp.use
-                    split[np.nonzero(lined)[0][~keep]] = True
-                    accept[np.nonzero(lined)[0][~keep]] = False
-                    lined[lined] = keep
-                    sub = sub.take(keep)
-                    interp = interp.take(keep)
-                    lbudget = lbudget[keep]
-            if lined.any():
-                mc = self._turn_cells(sub, interp)
-                val, lerr, _, charge = self._lines(mc, lbudget)
-                if not self.resolve_zero and np.any((self.zero_charge + charge.sum()) * ZERO_CHARGE_PARTS
-                                                    > ZERO_CHARGE_SHARE * tol[K_INTEGRALS]):
-                    # the bounds for K = 0 left unresolved would take too much of the K
-                    # integrals' tolerance (small K integrals): resolve it from here on
-                    self.resolve_zero = True
-                    val, lerr, _, charge = self._lines(mc, lbudget)
-                # the quadtree's children sums are an independent check of the K integrals:
-                # a discrepancy beyond the line estimate that the quadtree also sees (its own
-                # estimate) marks a rough or singular integrand the lines did not resolve.
-                # Cells on an interpolant have passed a sharper check (the interpolant
-                # against samples it was not built from), and there the discrepancy is the
-                # Gauss sums' own error at the kink of |K| that the lines remove.
-                kq = K_INTEGRALS
-                gap = np.minimum(np.abs(val[:, LINE_K] - sub.Q[:, kq]), err[lined, kq])
-                gap[interp.use] = 0.0
-                lerr[:, LINE_K] = np.maximum(lerr[:, LINE_K], gap)
-                unit.Q[lined, LINE_Q] = val
-                err[lined, LINE_Q] = lerr
+            accept, last, fit_trial = self._tree_candidates(unit, err, budget, last)
+            lined, split, charge = self._line_candidates(a, ch, unit, err, accept, last, fit_trial, Qtot, tol)
             if fit_trial:  # every cell a candidate but those split for their interpolants
                 accept = ~split
-            # the candidates again, on every quantity with the lines' errors (global budget)
-            c = np.nonzero(accept)[0]
-            if c.size and not np.all(err[c].sum(0) <= budget):
-                accept[c] = _greedy_accept(err[c], budget)
-            unit = unit.with_(err=err)
-            if accept.any():
-                self.err_acc = self.err_acc + err[accept].sum(0)
-                self.accepted.append(unit.take(accept))
-                if lined.any():
-                    self.zero_charge += float(charge[accept[lined]].sum())
-            self.pending = unit.take(~accept) if last else None
-            self.active = ch.take(np.repeat(~accept, 4))
-            self._record_level()
+            self._accept_level(unit, err, accept, lined, charge, budget, last, ch)
             if self.progress is not None:
                 self.progress(min(1.0, self.depth / float(depth_limit + 1) if point_budget is None
                                   else self.f.n_points / float(point_budget)),
                               "quadrature depth %d: %d of %d cells refined"
                               % (self.depth, int((~accept).sum()), na))
+
+    def _parent_units(self, a, ch):
+        """The active cells a as units (CellSet) of their children ch's Gauss sums, and their
+        error estimates |Q(cell) - sum of Q over its children| (n, 9), the class areas'
+        shared by class fraction (share_area_error)."""
+        na = a.size
+        pk = ch.peak.reshape(na, 4, 3)
+        unit = a.boxes().with_(Q=ch.Q.reshape(na, 4, NQ).sum(1), mixed=ch.mixed.reshape(na, 4).any(1),
+                               pmeas=ch.pmeas.reshape(na, 4).sum(1),
+                               peak=pk[np.arange(na), pk[:, :, 2].argmax(1)], depth=np.full(na, self.depth))
+        return unit, share_area_error(np.abs(a.Q - unit.Q), unit.Q)
+
+    def _tree_candidates(self, unit, err, budget, last):
+        """The units that fit, greedily, TREE_SAFETY of the budget of the smooth quantities
+        (n,) bool, whether this level is the last, and whether it is tried as the last one:
+        driven by the error (point_budget given), a level whose cells may fit the whole
+        budget (the mixed cells' line quantities still to come) makes all its cells
+        candidates, the mixed ones on lines (above max_depth, those whose interpolant is not
+        yet accurate are split instead of taking lines of the field)."""
+        mixed = unit.mixed
+        err_tree = err.copy()
+        if self.lines:
+            err_tree[mixed, K_INTEGRALS] = 0.0  # K integrals of mixed cells: from the lines
+        tree_budget = TREE_SAFETY * budget[:N_SMOOTH]
+        if np.all(err_tree[:, :N_SMOOTH].sum(0) <= tree_budget):
+            accept = np.ones(unit.size, bool)
+        else:
+            accept = greedy_accept(err_tree[:, :N_SMOOTH], tree_budget)
+        fit_trial = False
+        if self.point_budget is not None and not last and self.lines:
+            hope = err.copy()
+            hope[mixed, LINE_Q] = 0.0
+            fit_trial = last = bool(np.all(hope.sum(0) <= budget))
+        return accept, last, fit_trial
+
+    def _line_candidates(self, a, ch, unit, err, accept, last, fit_trial, Qtot, tol):
+        """Line integrals of the mixed candidate units (on the last level every mixed unit),
+        written into unit.Q and err for LINE_Q; a mixed unit whose interpolant is not yet
+        accurate is split instead (accept set False) unless this is the last level. Returns
+        the units on lines (n,) bool, those split for their interpolants (n,) bool and the
+        bounds charged on the lines for K = 0 (per lined unit)."""
+        na = unit.size
+        lined = unit.mixed & (accept | last) & self.lines
+        split = np.zeros(na, bool)  # mixed cells split for their interpolants' sake
+        charge = None
+        if lined.any():
+            P_tot = sum((p.pmeas.sum() for p in self.accepted), unit.pmeas.sum())
+            sub = unit.take(lined)
+            share = self._share(sub.Q, sub.pmeas, Qtot, P_tot)
+            lbudget = 0.5 * share[:, LINE_Q] * tol[None, LINE_Q]
+            interp = interpolants(self.ls, a, ch, lined, sub, lbudget)
+            if (not last or (fit_trial and self.depth < self.max_depth)) and not interp.use.all():
+                # a cell whose interpolant is not yet accurate is split rather than
+                # integrated on lines of the field: its children's interpolants converge
+                # fast, and four children cost less than the lines of one cell
+                keep = interp.use
+                split[np.nonzero(lined)[0][~keep]] = True
+                accept[np.nonzero(lined)[0][~keep]] = False
+                lined[lined] = keep
+                sub = sub.take(keep)
+                interp = interp.take(keep)
+                lbudget = lbudget[keep]
+        if lined.any():
+            charge = self._lines_of(sub, interp, lbudget, err[lined], tol, unit, err, lined)
+        return lined, split, charge
+
+    def _lines_of(self, sub, interp, lbudget, err_lined, tol, unit, err, lined):
+        """The lines of the units sub with their interpolants and budgets, into unit.Q and
+        err at lined; K = 0 is resolved from here on when the bounds charged for it would
+        take too much of the K integrals' tolerance. Returns the bounds charged (k,)."""
+        mc = turn_cells(self.ls, sub, interp)
+        val, lerr, _, charge = integrate_lines(self.ls, mc, lbudget)
+        if not self.ls.resolve_zero and np.any((self.zero_charge + charge.sum()) * ZERO_CHARGE_PARTS
+                                               > ZERO_CHARGE_SHARE * tol[K_INTEGRALS]):
+            # the bounds for K = 0 left unresolved would take too much of the K
+            # integrals' tolerance (small K integrals): resolve it from here on
+            self.ls = replace(self.ls, resolve_zero=True)
+            val, lerr, _, charge = integrate_lines(self.ls, mc, lbudget)
+        # the quadtree's children sums are an independent check of the K integrals:
+        # a discrepancy beyond the line estimate that the quadtree also sees (its own
+        # estimate) marks a rough or singular integrand the lines did not resolve.
+        # Cells on an interpolant have passed a sharper check (the interpolant
+        # against samples it was not built from), and there the discrepancy is the
+        # Gauss sums' own error at the kink of |K| that the lines remove.
+        kq = K_INTEGRALS
+        gap = np.minimum(np.abs(val[:, LINE_K] - sub.Q[:, kq]), err_lined[:, kq])
+        gap[interp.use] = 0.0
+        lerr[:, LINE_K] = np.maximum(lerr[:, LINE_K], gap)
+        unit.Q[lined, LINE_Q] = val
+        err[lined, LINE_Q] = lerr
+        return charge
+
+    def _accept_level(self, unit, err, accept, lined, charge, budget, last, ch):
+        """Accept the candidates again, greedily, on every quantity with the lines' errors
+        against the budget left; the rest are refined (their children become active), or
+        pending on the last level."""
+        c = np.nonzero(accept)[0]
+        if c.size and not np.all(err[c].sum(0) <= budget):
+            accept[c] = greedy_accept(err[c], budget)
+        unit = unit.with_(err=err)
+        if accept.any():
+            self.err_acc = self.err_acc + err[accept].sum(0)
+            self.accepted.append(unit.take(accept))
+            if lined.any():
+                self.zero_charge += float(charge[accept[lined]].sum())
+        self.pending = unit.take(~accept) if last else None
+        self.active = ch.take(np.repeat(~accept, 4))
+        self._record_level()
 
     def _accept_own(self):
         """Accept active cells on their own Gauss sums, without children: cells that meet
@@ -329,11 +359,11 @@ class _Integrator(LineIntegration, CutSearch):
         cand = ~a.mixed & a.sreg.reshape(n, -1).all(1) & np.isfinite(a.err_e).all(1)
         if not cand.any():
             return
-        err = _share_area_error(a.err_e.copy(), a.Q)
+        err = share_area_error(a.err_e.copy(), a.Q)
         Qtot = sum((p.Q.sum(0) for p in self.accepted), a.Q.sum(0))
         budget = OWN_SAFETY * (self._tolerance(Qtot) - self.err_acc)
         ok = np.zeros(n, bool)
-        ok[cand] = _greedy_accept(err[cand], budget)
+        ok[cand] = greedy_accept(err[cand], budget)
         if not ok.any():
             return
         unit = a.boxes().take(ok).with_(Q=a.Q[ok], mixed=a.mixed[ok], pmeas=a.pmeas[ok], peak=a.peak[ok],
@@ -380,7 +410,7 @@ class _Integrator(LineIntegration, CutSearch):
             n_initial_cells=self.n_initial, n_mixed_cells=int(units.mixed.sum()),
             nonregular_uv=nonreg, n_nonregular=self.n_nonregular, unconverged_cells=unconv,
             peak_KJ=units.peak[top], seconds=time.perf_counter() - seconds_start,
-            history=list(self.history), zero_resolved=self.resolve_zero,
+            history=list(self.history), zero_resolved=self.ls.resolve_zero,
             zero_charge=self.zero_charge, point_budget=self.point_budget, budget_spent=self.budget_spent,
             deepest_cells=deepest)
 
@@ -413,8 +443,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     result says whether the budget stopped it (budget_spent).
     Returns a QuadratureResult.
     """
-    if not isinstance(domain, TrimmedDomain):
-        raise InputError("integrate() needs a TrimmedDomain, got %s" % type(domain).__name__)
+    check_domain("integrate", domain)
     tau_H = check_positive("tau_H", tau_H)
     tau_K = check_positive("tau_K", tau_K)
     check_positive("rtol", rtol)
@@ -422,7 +451,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
         raise InputError("quadrature order and max_depth must be >= 1 and class_max_depth "
                          ">= 0, got %r, %r, %r" % (order, max_depth, class_max_depth))
     start = time.perf_counter()
-    it = _Integrator(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
+    it = Integration(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
                      u_breaks, v_breaks, progress, patch_range, prefetch, int(max_depth), reference, lines,
                      point_budget if depth_limit is not None else None)
     if depth_limit is not None:

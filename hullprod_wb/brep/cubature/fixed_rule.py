@@ -4,11 +4,10 @@ in which a face of many patches is integrated (patch_groups)."""
 import numpy as np
 
 from ...core.errors import InputError
-from ..gauss_rules import embedded_weights, gauss_nodes
-from ..patches import Patches
-from ..trimmed_domain import TrimmedDomain
+from .gauss_rules import embedded_weights, gauss_nodes
+from .patches import Patches, check_domain
 from .cells import cell_nodes, tensor_cells, values_at_nodes
-from .driver import _Integrator
+from .driver import Integration
 from .settings import GROUPS, GROUP_MIN_PATCHES, QUANTITIES
 
 
@@ -18,11 +17,10 @@ def patch_rule(domain, field, order, u_breaks=(), v_breaks=()):
     check of the adaptive cubature; class quantities with unit thresholds), and the summed
     embedded-rule differences (gauss_rules.embedded_weights) as a bound on their error: two dicts
     quantity -> float."""
-    if not isinstance(domain, TrimmedDomain):
-        raise InputError("patch_rule() needs a TrimmedDomain, got %s" % type(domain).__name__)
+    check_domain("patch_rule", domain)
     if int(order) < 3:
         raise InputError("patch_rule() needs order >= 3, got %r" % (order,))
-    it = _Integrator(domain, field, 1.0, 1.0, int(order), 1.0, 0, u_breaks, v_breaks, None)
+    it = Integration(domain, field, 1.0, 1.0, int(order), 1.0, 0, u_breaks, v_breaks, None)
     values = {q: float(x) for q, x in zip(QUANTITIES, it.active.Q.sum(0))}
     bounds = {q: float(x) for q, x in zip(QUANTITIES, it.active.err_e.sum(0))}
     return values, bounds
@@ -34,8 +32,7 @@ def patch_area(domain, area_element, order, u_breaks=(), v_breaks=(), area_eleme
     area_element(u, v) -> dict with J alone (and area_element_grid(u, v), the same on tensor
     grids as FaceField.area_element_grid, for the patches between constant bounds), and the
     summed embedded-rule differences as a bound on its error: (area, bound)."""
-    if not isinstance(domain, TrimmedDomain):
-        raise InputError("patch_area() needs a TrimmedDomain, got %s" % type(domain).__name__)
+    check_domain("patch_area", domain)
     order = int(order)
     if order < 3:
         raise InputError("patch_area() needs order >= 3, got %r" % (order,))

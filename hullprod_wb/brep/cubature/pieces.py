@@ -1,18 +1,70 @@
 """Pieces of the lines of mixed cells, shared by the line integration and the cut search:
-the mixed cells with their interpolants, segments of a line between cuts, crossing counts and pairs of a level, pieces split at or
+what both read of the integration (LineSetting), the mixed cells with their interpolants, segments of a line between cuts, crossing counts and pairs of a level, pieces split at or
 halved between parameters, and a parabolic search for the extremum of a level function
 between samples."""
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
 from .cells import CellSet
-from .settings import EDGE_XI, N_LEVELS, PARABOLIC_STEPS
+from .settings import EDGE_XI, LEVEL_ROW, N_LEVELS, PARABOLIC_STEPS
+
+
+@dataclass(frozen=True, eq=False)
+class LineSetting:
+    """What the line integration and the cut search read of one integration: its patches,
+    the field (counting its points, cells.CountedField), the class thresholds tau_H, tau_K
+    (eq:class_thresholds), the halvings in sigma of a cell's lines (class_max_depth), the
+    interpolants' grid matrices (cell_interpolant.grid_matrices) and whether K = 0 cuts the
+    lines (resolve_zero; a new setting is made when it is switched on)."""
+
+    patches: object
+    field: object
+    tau_H: float
+    tau_K: float
+    class_max_depth: int
+    grid_inverse: np.ndarray
+    parent_vander: np.ndarray
+    resolve_zero: bool = False
+    #: constants the level functions subtract from their field row (LEVEL_ROW)
+    level_offset: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "level_offset", np.array([self.tau_K, -self.tau_K, self.tau_H, -self.tau_H, 0.0]))
+
+    def thresholds(self, K, H):
+        """(n, 5) level functions K - tau_K, K + tau_K, H - tau_H, H + tau_H, K: the field of
+        LEVEL_ROW minus level_offset."""
+        rows = (None, K, H)
+        return np.stack([rows[r] for r in LEVEL_ROW], -1) - self.level_offset
+
+
+class LinePieces(NamedTuple):
+    """The pieces between crossings of lines (lines.line_values), all (k,) but J, KJ."""
+
+    #: the line of each piece, its ends in t, the line's t0 and span t1 - t0
+    line: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    t0: np.ndarray
+    span: np.ndarray
+    #: bool: on an interpolant's line; short pieces on the field
+    poly: np.ndarray
+    short: np.ndarray
+    #: the long pieces, then the whole lines (indices): integrated by Gauss-Kronrod
+    kronrod: np.ndarray
+    n_kronrod: int
+    #: J and K J at the Kronrod nodes of the kronrod pieces (7 each), then at the midpoints
+    J: np.ndarray
+    KJ: np.ndarray
+    #: K and the class at each piece's midpoint
+    K_mid: np.ndarray
+    cls: np.ndarray
 
 
 class LineCrossings(NamedTuple):
-    """Crossings of the level functions on lines (_count_and_pairs)."""
+    """Crossings of the level functions on lines (count_and_pairs)."""
 
     #: (L, 5) crossings of each level on each line
     count: np.ndarray
@@ -27,7 +79,7 @@ class LineCrossings(NamedTuple):
 
 
 class LineSamples:
-    """The field at the samples ZS of n lines (LineIntegration._crossings): J, K J (both 0
+    """The field at the samples ZS of n lines (crossings.crossings): J, K J (both 0
     where not regular), K, H and reg (n, 9); zero (n,) bool: K changes sign on the line by
     the samples (set by the crossing search)."""
 
@@ -39,7 +91,7 @@ class LineSamples:
 
 
 class LineValues(NamedTuple):
-    """The integrals of L lines (LineIntegration._line_values)."""
+    """The integrals of L lines (lines.line_values)."""
 
     #: (L, 7) integrals of the LINE_Q integrands times (hi - lo) dt
     F: np.ndarray
@@ -72,7 +124,7 @@ class Interpolants:
 @dataclass(frozen=True)
 class MixedCells:
     """The mixed cells whose lines are integrated, lines along t (turned cells: sigma and t
-    exchanged, see LineIntegration._turn_cells), with their interpolants."""
+    exchanged, see lines.turn_cells), with their interpolants."""
 
     #: the cells' patches and boxes in (sigma, t) (their boxes alone)
     boxes: CellSet
@@ -131,7 +183,7 @@ class Pieces:
                         for k in ("cell", "sa", "sb", "kind", "perr", "sib")))
 
 
-def _segments(cuts, owner):
+def cut_segments(cuts, owner):
     """Consecutive pairs of sorted cut values per owner: (owner, a, b) of non-empty pieces.
 
     cuts, owner (k,); every owner must have its two end values among the cuts."""
@@ -141,7 +193,7 @@ def _segments(cuts, owner):
     return w[k], c[k], c[k + 1]
 
 
-def _count_and_pairs(line, level, roots, L):
+def count_and_pairs(line, level, roots, L):
     """Crossings per line and level, count (L, 5), the closest two of each, pair
     (L, 5, 2) (NaN when fewer than two), and the first and last of each, ends (L, 5, 2) (NaN
     when none), from roots (k,) of lines line (k,), levels (k,)."""
@@ -164,7 +216,7 @@ def _count_and_pairs(line, level, roots, L):
     return LineCrossings(count, pair, ends)
 
 
-def _parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
+def parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
     """Local minima by successive parabolic interpolation, all at once.
 
     x, f (n, 3): a bracket x0 < x1 < x2 with f1 <= f0, f2 (the middle one lowest).
@@ -202,7 +254,7 @@ def _parabolic_min(fun, x, f, steps=PARABOLIC_STEPS):
     return x[:, 1], f[:, 1]
 
 
-def _split_pieces(pc, piece, at):
+def split_pieces(pc, piece, at):
     """Pieces pc cut at sigma values at (k,) of pieces piece (k,); the new ends are
     clustered (cluster_map), old ends keep their clustering."""
     if piece.size == 0:
@@ -210,7 +262,7 @@ def _split_pieces(pc, piece, at):
     ids = np.unique(piece)
     cuts = np.concatenate((pc.sa[ids], at, pc.sb[ids]))
     owner = np.concatenate((ids, piece, ids))
-    w, a, b = _segments(cuts, owner)
+    w, a, b = cut_segments(cuts, owner)
     keep_lo = (a == pc.sa[w]) & (pc.kind[w] & 1 > 0)
     keep_hi = (b == pc.sb[w]) & (pc.kind[w] & 2 > 0)
     lo_tan = (a != pc.sa[w]) | keep_lo
@@ -219,7 +271,7 @@ def _split_pieces(pc, piece, at):
                   np.full(w.size, np.inf), np.full(w.size, -1))
 
 
-def _halve_pieces(pc, mask, err):
+def halve_pieces(pc, mask, err):
     """The two halves (in sigma) of the pieces pc[mask]; each keeps its outer clustering,
     and records its parent's error err[mask] (n,) and a sibling id (its parent's index)."""
     cell, sa, sb, kind = pc.cell[mask], pc.sa[mask], pc.sb[mask], pc.kind[mask]
@@ -229,7 +281,7 @@ def _halve_pieces(pc, mask, err):
                   np.repeat(np.nonzero(mask)[0], 2))
 
 
-def _inside_pieces(pc, piece, at):
+def inside_pieces(pc, piece, at):
     """Whether the sigma values at (k,) lie inside the pieces piece (k,) of pc, farther than
     EDGE_XI of their width from both ends (a cut there would leave a needless sliver)."""
     w = pc.sb[piece] - pc.sa[piece]

@@ -55,7 +55,7 @@ class QuadratureResult(QuadratureValues):
     rule (section 5.2).
     zero_resolved: crossings of K = 0 cut the lines of mixed cells (else the bounds charged
     instead, zero_charge, within ZERO_CHARGE_SHARE of the K integrals' tolerances, are part
-    of their error estimates; see _Integrator._line_values).
+    of their error estimates; see lines.line_values).
     """
 
     values: dict

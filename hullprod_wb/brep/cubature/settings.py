@@ -2,7 +2,7 @@
 (hullprod_wb.brep.cubature)."""
 import numpy as np
 
-from ..gauss_rules import XK, piece_weights
+from .gauss_rules import XK, piece_weights
 
 
 #: Names of the integrated quantities, in the order of the value arrays.
@@ -95,7 +95,7 @@ TANGENT_STEPS = 10
 #: Crossings of K = 0 (a kink of |K|, max(+-K, 0)) lie inside the band |K| <= tau_K, in flat
 #: or single pieces of the lines, where the K integrals are bounded by tau_K times the area.
 #: The lines are not cut there while the bounds charged to the K integrals' error estimates
-#: instead (_Integrator._line_values; a part ZERO_CHARGE_PARTS of the bound to |K|, K+, K-)
+#: instead (lines.line_values; a part ZERO_CHARGE_PARTS of the bound to |K|, K+, K-)
 #: stay within ZERO_CHARGE_SHARE of their tolerances; beyond that K = 0 is resolved.
 #: The bound of |K| on a line is at most ZERO_BOUND_SAFETY times its largest sampled |K|.
 ZERO_CHARGE_SHARE = 0.1
@@ -115,7 +115,7 @@ STALL_RATIO = 0.45
 MAX_PIECES = 64
 
 
-#: A mixed cell's lines are taken on its local interpolant (see _Integrator._interpolants)
+#: A mixed cell's lines are taken on its local interpolant (see lines.interpolants)
 #: when the interpolant's error estimate is within this share of the cell's budget.
 INTERPOLANT_SHARE = 0.1
 
@@ -192,7 +192,7 @@ M_HI = piece_weights(ZS)
 M_LO = piece_weights(ZS[1:-1])
 
 
-#: Field row (SegmentField: 0 J, 1 K, 2 H) of each level function of _Integrator._thresholds:
+#: Field row (SegmentField: 0 J, 1 K, 2 H) of each level function of pieces.LineSetting.thresholds:
 #: K = +-tau_K (LEVEL_K), H = +-tau_H (LEVEL_H), K = 0.
 LEVEL_ROW = np.array([1, 1, 2, 2, 1])
 LEVEL_K = slice(0, 2)

@@ -24,8 +24,9 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from ..core.errors import InputError
-from .occ_records import nurbs_record
+from ...core.errors import InputError
+from ..cubature.cells import grid_points
+from ..reading.occ_records import nurbs_record
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
@@ -33,7 +34,7 @@ CHUNK = 8192
 GRID_CHUNK = 1024
 
 
-def _as_points(u, v):
+def as_points(u, v):
     """Broadcast parameters to two flat float arrays of equal length n."""
     try:
         uu, vv = np.broadcast_arrays(np.asarray(u, dtype=float), np.asarray(v, dtype=float))
@@ -41,13 +42,6 @@ def _as_points(u, v):
         raise InputError("parameter arrays u and v have incompatible shapes: %s" % exc) from exc
     return np.ascontiguousarray(uu).ravel(), np.ascontiguousarray(vv).ravel()
 
-
-def grid_points(u, v):
-    """The points of the tensor grids u (n, a) x v (n, b), (u[c, i], v[c, j]), as two flat
-    arrays (n a b,) in [c, i, j] order."""
-    u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
-    shape = (u.shape[0], u.shape[1], v.shape[1])
-    return np.broadcast_to(u[:, :, None], shape).ravel(), np.broadcast_to(v[:, None, :], shape).ravel()
 
 
 def find_spans(knots, degree, x):
@@ -297,7 +291,7 @@ class NurbsSurfaceData:
         """
         if order not in (0, 1, 2):
             raise InputError("derivative order must be 0, 1 or 2, got %r" % (order,))
-        u, v = _as_points(u, v)
+        u, v = as_points(u, v)
         u = self._wrap(u, self.uperiod, self.urange)
         v = self._wrap(v, self.vperiod, self.vrange)
         n = u.shape[0]

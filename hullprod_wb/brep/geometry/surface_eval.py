@@ -15,11 +15,12 @@ parameterisation). The face's orientation enters only through ``orientation_sign
 """
 import numpy as np
 
-from ..core.errors import InputError
+from ...core.errors import InputError
 from . import differential
 from .analytic_surfaces import analytic_from_surface
-from .nurbs import NurbsSurfaceData, _as_points, grid_points, knot_breaks
-from .occ_records import orientation_sign_of, unwrap_surface
+from ..cubature.cells import grid_points
+from .nurbs import NurbsSurfaceData, as_points, knot_breaks
+from ..reading.occ_records import orientation_sign_of, unwrap_surface
 
 
 def face_surface(face):
@@ -48,7 +49,7 @@ class _OccBackend:
         self.surface = surface
 
     def evaluate(self, u, v, order=2):
-        u, v = _as_points(u, v)
+        u, v = as_points(u, v)
         n = u.shape[0]
         orders = self._ORDERS[:(0, 2, 5)[order]]
         out = np.empty((1 + len(orders), n, 3))
@@ -133,15 +134,15 @@ class SurfaceEvaluator:
 
     @classmethod
     def from_record(cls, rec):
-        """Evaluator of a B-spline or Bezier face from occ_records.face_record's data
-        (no Part surface: surface is None), the same as for_face of that face."""
+        """Evaluator of a B-spline or Bezier face from its occ_records.FaceData (no Part
+        surface: surface is None), the same as for_face of that face."""
         self = cls.__new__(cls)
         self.surface = None
-        self.orientation_sign = int(rec["orientation_sign"])
-        self.parameter_range = tuple(float(x) for x in rec["parameter_range"])
-        self.nurbs = NurbsSurfaceData.from_record(rec["nurbs"])
+        self.orientation_sign = int(rec.orientation_sign)
+        self.parameter_range = tuple(float(x) for x in rec.parameter_range)
+        self.nurbs = NurbsSurfaceData.from_record(rec.nurbs)
         self.analytic = None
-        self.kind = rec["kind"]
+        self.kind = rec.kind
         self._backend = self.nurbs
         return self
 

@@ -1,4 +1,5 @@
-"""Faces of a BRep assessment integrated in parallel worker processes.
+"""Process helpers: faces of a BRep assessment integrated in parallel worker processes, forked
+single calls, whether forking is safe here, and the one count of the CPUs (available_cpus).
 
 The faces of a shape are integrated independently of each other (face_assessment.assess_face: one
 face's adaptive tree never looks at another's), so running them in several processes gives
@@ -27,7 +28,7 @@ import pickle
 import sys
 import threading
 
-from ..core.errors import InputError
+from .errors import InputError
 
 #: Environment variable that sets the automatic number of worker processes (batch workers
 #: set it to 1: they already run one case per CPU).

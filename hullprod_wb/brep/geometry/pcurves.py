@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 
-from ..core.errors import InputError
+from ...core.errors import InputError
 from .nurbs import basis_derivatives, find_spans
-from .occ_records import pcurve_record, xy
+from ..reading.occ_records import pcurve_record, xy
 
 #: Samples per polynomial span of a p-curve (bracketing of u-extrema and crossings).
 SAMPLES_PER_SPAN = 16

@@ -7,8 +7,8 @@ side of the surface, or a gap within the shape's own tolerance).
 """
 import numpy as np
 
-from ..core.errors import InputError
-from .occ_records import unwrap_surface
+from ...core.errors import InputError
+from ..reading.occ_records import unwrap_surface
 from .pcurves import ConicArc2D, FunctionCurve2D, NurbsCurve2D, curve_from_geom2d
 
 #: OpenCascade's Precision::Confusion (model units): points closer than this coincide.

@@ -4,10 +4,10 @@ raises) is NOT EVALUATED in its record, with the reason and an estimate of its a
 hull's metrics are formed over the evaluated faces and say which faces they leave out and
 what share of the area those carry (paper section 4.3: validity travels with the number).
 """
-from ..core.errors import InputError
-from ..core.validity import ESTABLISHED, Status
+from ...core.errors import InputError
+from ...core.validity import Qualification, Status
 from .cross_checks import area_rule
-from .face_setup import EmptyDomain, FaceSetup
+from ..geometry.trimmed_domain import EmptyDomain
 
 #: Tessellation deflection of a left-out face's polygon area estimate, relative to its size.
 POLYGON_ESTIMATE_DEFLECTION = 1e-3
@@ -50,9 +50,10 @@ def _polygon_area(face):
     return total if tris else None
 
 
-def left_out_face(number, face, exc, setup=None):
+def left_out_face(number, face, exc, setup=None, set_up=None):
     """LeftOutFace of a face whose assessment raised exc: its area from our own order-8
-    tensor Gauss-Legendre rule over its trimmed domain when the face can be set up, else
+    tensor Gauss-Legendre rule over its trimmed domain when the face can be set up (setup, or
+    set_up(face): the face's FaceSetup), else
     from the triangles of OpenCascade's tessellation (a Part face), else unknown. A face
     whose trimmed domain has no extent has area 0 exactly."""
     surface_type = getattr(face, "surface_type", None)
@@ -66,13 +67,13 @@ def left_out_face(number, face, exc, setup=None):
                            0.0, "trimmed domain without extent", surface_type or "no surface")
     reason = _one_line(exc)
     try:
-        s = setup or FaceSetup(face)
+        s = setup or set_up(face)
         area = float(area_rule(s.ff, s.domain, s.gu, s.gv)[0])
         if area == area and abs(area) != float("inf"):
             return LeftOutFace(number, reason, area, "tensor Gauss-Legendre order 8 on its trimmed domain",
                                surface_type)
     except EmptyDomain as again:
-        return left_out_face(number, face, again)
+        return left_out_face(number, face, again, set_up=set_up)
     except Exception:  # the set-up itself fails: estimate from a tessellation
         pass
     if hasattr(face, "tessellate"):
@@ -93,9 +94,9 @@ def evaluated_faces(results):
     return done, left
 
 
-def mark_left_out(validity, left_out, evaluated_area):
-    """Qualify every metric record of validity for the faces left out: CAUTION (from VALID
-    or VALID*) naming them and their share of the area, estimate / (evaluated area + the
+def left_out_qualification(left_out, evaluated_area):
+    """The Qualification of every metric for the faces left out: CAUTION (from VALID or
+    VALID*) naming them and their share of the area, estimate / (evaluated area + the
     estimates), or 'unknown' when a face has no estimate; faces of zero estimated area
     change no status and are named in the evidence."""
     estimates = [f.area_estimate for f in left_out]
@@ -112,9 +113,5 @@ def mark_left_out(validity, left_out, evaluated_area):
               "computed over the evaluated faces; face(s) %s NOT EVALUATED (%s)" % (names, share_text))
     evidence = [{"face": f.number, "reason": f.reason, "area_estimate": f.area_estimate,
                  "area_estimate_method": f.method} for f in left_out]
-    for rec in validity.values():
-        rec.evidence["faces_not_evaluated"] = evidence
-        rec.evidence["not_evaluated_area_share"] = share
-        if not zero and rec.status in ESTABLISHED and rec.status != Status.CAUTION:
-            rec.status, rec.code = Status.CAUTION, "faces_not_evaluated"
-        rec.reason = (rec.reason + "; " if rec.reason else "") + reason
+    return Qualification("faces_not_evaluated", reason,
+                         {"faces_not_evaluated": evidence, "not_evaluated_area_share": share}, caution=not zero)

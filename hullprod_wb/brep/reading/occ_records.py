@@ -10,6 +10,8 @@ reading process (record_reader) sends them to the process that integrates.
 Nothing here imports numpy: the reading side never loads it.
 """
 from array import array
+from dataclasses import dataclass
+from typing import Optional
 
 #: Cross-check points per face (cross_checks.cross_check_occ compares at the same points).
 CROSS_CHECK_POINTS = 7
@@ -17,6 +19,38 @@ CROSS_CHECK_POINTS = 7
 PCURVE_CHECK_SAMPLES = 5
 #: Default display deflection as a fraction of the shape's bounding-box diagonal.
 DISPLAY_DEFLECTION = 5e-3
+
+
+@dataclass(frozen=True)
+class FaceData:
+    """The record of one face as the reading process sends it; one set of fields for every
+    face. number: the face's 1-based number in the shape; surface_type: OpenCascade's name of
+    its surface; kind: "bspline" or "bezier" (described by numbers) or "part" (sent as
+    OpenCascade's data, loading.faces_to_bytes, for the reason given); part: its index among
+    the faces sent as data ("part") or among the described faces (which also travel as data,
+    for a trimmed domain that needs OpenCascade); patch_count and occ_reference (OpenCascade's
+    values at the cross-check points); and for a described face nurbs (nurbs_record),
+    orientation_sign, parameter_range, pcurves (pcurve_record each), end_vertices and
+    vertices (edge_vertices)."""
+
+    number: int
+    surface_type: str
+    kind: str
+    part: int
+    patch_count: int
+    occ_reference: list
+    reason: Optional[str] = None
+    nurbs: Optional[dict] = None
+    orientation_sign: Optional[int] = None
+    parameter_range: Optional[tuple] = None
+    pcurves: Optional[list] = None
+    end_vertices: Optional[list] = None
+    vertices: Optional[list] = None
+
+    @property
+    def as_data(self):
+        """Whether the face travels as OpenCascade's data instead of numbers."""
+        return self.kind == "part"
 
 
 def unwrap_surface(surface):
@@ -193,13 +227,11 @@ def occ_reference(face, n=CROSS_CHECK_POINTS):
     return out
 
 
-def face_record(face):
-    """(record, None) of a face whose surface is a B-spline or Bezier surface and whose
-    p-curves this module describes, else (None, the reason). The record: surface_type,
-    nurbs (nurbs_record), orientation_sign, parameter_range, pcurves (pcurve_record each),
-    end_vertices and vertices (edge_vertices), patch_count, occ_reference. OpenCascade's
-    area of the face (slow: tens of milliseconds on a hull's faces) is not part of it; the
-    provenance takes it last."""
+def face_record(face, number, part):
+    """(FaceData, None) of a face whose surface is a B-spline or Bezier surface and whose
+    p-curves this module describes, else (None, the reason); number: the face's number,
+    part: its index among the described faces. OpenCascade's area of the face (slow: tens
+    of milliseconds on a hull's faces) is not part of it; the provenance takes it last."""
     surface = unwrap_surface(face.Surface)
     name = type(surface).__name__
     nurbs = nurbs_record(surface)
@@ -214,11 +246,12 @@ def face_record(face):
         pcurves.append(rec)
         edges.append(edge)
     end_vertices, vertices = edge_vertices(edges)
-    return {"surface_type": type(face.Surface).__name__, "kind": "bspline" if name == "BSplineSurface" else "bezier",
-            "nurbs": nurbs, "orientation_sign": orientation_sign_of(face),
-            "parameter_range": tuple(float(x) for x in face.ParameterRange), "pcurves": pcurves,
-            "patch_count": patch_count(face), "occ_reference": occ_reference(face),
-            "end_vertices": end_vertices, "vertices": vertices}, None
+    return FaceData(number=number, surface_type=type(face.Surface).__name__,
+                    kind="bspline" if name == "BSplineSurface" else "bezier", part=part,
+                    patch_count=patch_count(face), occ_reference=occ_reference(face), nurbs=nurbs,
+                    orientation_sign=orientation_sign_of(face),
+                    parameter_range=tuple(float(x) for x in face.ParameterRange), pcurves=pcurves,
+                    end_vertices=end_vertices, vertices=vertices), None
 
 
 def display_mesh(face, deflection):

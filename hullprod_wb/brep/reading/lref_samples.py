@@ -11,7 +11,7 @@ as running it here. Nothing in this module needs numpy.
 import time
 from array import array
 
-from .face_pool import ForkedCall
+from ...core.processes import ForkedCall
 from .loading import load_brep
 
 #: Deflection of the L_ref tessellation, as a fraction of the bounding-box diagonal.
@@ -38,7 +38,7 @@ def tessellate_faces(faces, deflection):
 
 class LrefTessellation:
     """tessellate_faces(faces, deflection), made in a child forked now (with fork, where
-    forking is safe: face_pool.ForkedCall) or else at the first result(); result() returns
+    forking is safe: processes.ForkedCall) or else at the first result(); result() returns
     (points, triangles, seconds it took)."""
 
     def __init__(self, faces, deflection, fork=True):

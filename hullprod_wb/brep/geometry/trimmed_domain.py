@@ -25,10 +25,10 @@ straight segments through the projected points of its 3-D edges.
 """
 import numpy as np
 
-from ..core.errors import InputError
-from .occ_records import edge_vertices, face_pcurves
+from ...core.errors import InputError
+from ..reading.occ_records import edge_vertices, face_pcurves
 from .pcurves import ConicArc2D, NurbsCurve2D, curve_from_geom2d, curve_from_record
-from .roots import solve_bracketed
+from ..cubature.roots import solve_bracketed
 from .surface_eval import SurfaceEvaluator
 from .trim_repair import close_gaps, plane_frame, plane_pcurve
 
@@ -38,6 +38,10 @@ SNAP_RTOL = 1e-11
 CLOSURE_RTOL = 1e-5
 #: Deflection of the 3-D edge polygons of a fallback domain, relative to the face's size.
 POLYGON_DEFLECTION = 1e-6
+
+
+class EmptyDomain(Exception):
+    """A face whose trimmed domain has no extent in u or v: it carries no area."""
 
 
 class OpenTrimLoops(InputError):
@@ -103,7 +107,8 @@ class TrimmedDomain:
     """The trimmed parameter domain of a face, from its trim curves (see module docstring).
 
     Attributes: curves (list of Curve2D), repairs (list of str: exact repairs made by
-    :meth:`from_face`, empty when none), u_range, v_range (2-tuples), is_rectangle (True
+    :meth:`from_face`, empty when none), fallback (why the domain is polygon_domain's, from
+    the 3-D edges; None for a domain of the p-curves), u_range, v_range (2-tuples), is_rectangle (True
     when Omega is its bounding rectangle, the untrimmed natural face), slabs (list of
     (u0, u1, lo_pieces (k,) int, hi_pieces (k,) int)), and per monotone piece the arrays
     piece_u_lo, piece_u_hi (snapped u range), piece_const_v (v of a horizontal piece, else
@@ -111,9 +116,10 @@ class TrimmedDomain:
     all such ends).
     """
 
-    def __init__(self, curves, repairs=()):
+    def __init__(self, curves, repairs=(), fallback=None):
         self.curves = list(curves)
         self.repairs = list(repairs)
+        self.fallback = fallback
         if not self.curves:
             raise InputError("trimmed domain: no trim curves")
         self._build_samples()
@@ -185,19 +191,19 @@ class TrimmedDomain:
 
     @classmethod
     def from_record(cls, rec, evaluator):
-        """Domain of a face from occ_records.face_record's p-curves and edge vertices, the
+        """Domain of a face from the p-curves and edge vertices of its occ_records.FaceData, the
         same as from_face gives for that face (evaluator: its SurfaceEvaluator, for closing
         loop gaps); None when a p-curve's conversion fails its check (from_face then
         evaluates it through OpenCascade)."""
-        curves = [curve_from_record(r) for r in rec["pcurves"]]
+        curves = [curve_from_record(r) for r in rec.pcurves]
         if any(c is None for c in curves):
             return None
         try:
             domain = cls(curves)
         except OpenTrimLoops as exc:
-            segments, notes = close_gaps(evaluator, rec["end_vertices"], rec["vertices"], exc)
+            segments, notes = close_gaps(evaluator, rec.end_vertices, rec.vertices, exc)
             domain = cls(curves + segments, notes)
-        domain.face_parameter_range = tuple(rec["parameter_range"])
+        domain.face_parameter_range = tuple(rec.parameter_range)
         return domain
 
     # -- construction -------------------------------------------------------------------------
@@ -396,8 +402,9 @@ class TrimmedDomain:
         return np.unique(np.concatenate(out)) if out else np.empty(0)
 
 
-def polygon_domain(face):
-    """Fallback trimmed domain when the face's p-curves do not form closed loops: each wire
+def polygon_domain(face, reason=None):
+    """Fallback trimmed domain when the face's p-curves do not form closed loops (reason: why,
+    its fallback attribute): each wire
     discretised in 3-D (deflection POLYGON_DEFLECTION of the face's size), its points
     projected into the face's parameter space, joined by straight lines (closed by
     construction). Exact for straight trims of planes; otherwise an approximation that the
@@ -414,4 +421,4 @@ def polygon_domain(face):
             a, b = uv[i], uv[(i + 1) % len(uv)]
             if np.any(a != b):
                 curves.append(NurbsCurve2D.line(a, b))
-    return TrimmedDomain.from_curves(curves)
+    return TrimmedDomain(curves, fallback=reason)

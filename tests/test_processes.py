@@ -1,4 +1,4 @@
-"""Faces integrated in parallel worker processes (brep.face_pool): the same values as one
+"""Faces integrated in parallel worker processes (core.processes): the same values as one
 after the other, the worker count resolved safely, errors and crashes reported."""
 import math
 import os
@@ -7,10 +7,10 @@ import threading
 import pytest
 
 from conftest import made_in_a_child, needs_freecad
-from hullprod_wb.brep import face_pool
+from hullprod_wb.core import processes
 from hullprod_wb.core.errors import InputError
 
-needs_fork = pytest.mark.skipif(not face_pool.fork_is_safe(), reason="forking is not available here")
+needs_fork = pytest.mark.skipif(not processes.fork_is_safe(), reason="forking is not available here")
 # a test that forks runs in a fresh process: this one may have meshed (and then forks nothing)
 forks = pytest.mark.clean_process
 
@@ -42,25 +42,25 @@ def test_parallel_faces_give_the_values_of_the_sequential_run():
 
 
 def test_resolve_jobs(monkeypatch):
-    monkeypatch.delenv(face_pool.JOBS_ENV, raising=False)
-    assert face_pool.resolve_jobs(1, 5) == 1
-    assert face_pool.resolve_jobs(None, 1) == 1  # never more than the faces
-    if face_pool.fork_is_safe():
-        assert face_pool.resolve_jobs(8, 3) == 3
-        assert face_pool.resolve_jobs(None, 64) == face_pool.available_cpus()
-    monkeypatch.setenv(face_pool.JOBS_ENV, "1")
-    assert face_pool.resolve_jobs(None, 8) == 1
-    monkeypatch.setenv(face_pool.JOBS_ENV, "many")
+    monkeypatch.delenv(processes.JOBS_ENV, raising=False)
+    assert processes.resolve_jobs(1, 5) == 1
+    assert processes.resolve_jobs(None, 1) == 1  # never more than the faces
+    if processes.fork_is_safe():
+        assert processes.resolve_jobs(8, 3) == 3
+        assert processes.resolve_jobs(None, 64) == processes.available_cpus()
+    monkeypatch.setenv(processes.JOBS_ENV, "1")
+    assert processes.resolve_jobs(None, 8) == 1
+    monkeypatch.setenv(processes.JOBS_ENV, "many")
     with pytest.raises(InputError, match="HULLPROD_JOBS"):
-        face_pool.resolve_jobs(None, 8)
+        processes.resolve_jobs(None, 8)
     for bad in (0, -2, "x"):
         with pytest.raises(InputError, match="jobs must be a positive integer"):
-            face_pool.resolve_jobs(bad, 8)
+            processes.resolve_jobs(bad, 8)
 
 
 def test_no_workers_from_a_thread():
     seen = []
-    t = threading.Thread(target=lambda: seen.append((face_pool.fork_is_safe(), face_pool.resolve_jobs(4, 4))))
+    t = threading.Thread(target=lambda: seen.append((processes.fork_is_safe(), processes.resolve_jobs(4, 4))))
     t.start()
     t.join()
     assert seen == [(False, 1)]
@@ -74,13 +74,13 @@ def test_threads_that_have_ended_do_not_stop_a_fork():
     the wait)."""
     from hullprod_wb.core.inputs import Digest
     from hullprod_wb.core.threads import run_blocks
-    assert face_pool.fork_is_clean()
+    assert processes.fork_is_clean()
     unclean = 0
     for _ in range(1500):
         Digest(__file__).result()
-        unclean += not face_pool.fork_is_clean()
+        unclean += not processes.fork_is_clean()
         run_blocks(lambda sl: None, [slice(0, 1), slice(1, 2)], 2)
-        unclean += not face_pool.fork_is_clean()
+        unclean += not processes.fork_is_clean()
     assert unclean == 0
 
 
@@ -96,11 +96,11 @@ def test_a_thread_python_did_not_start_stops_forking_at_once():
     sleep = ctypes.cast(libc.sleep, ctypes.c_void_p)   # sleep(30) as the thread's routine
     assert libc.pthread_create(ctypes.byref(handle), None, sleep, ctypes.c_void_p(30)) == 0
     t0 = time.monotonic()
-    assert not face_pool.fork_is_clean()
-    assert time.monotonic() - t0 >= face_pool.SETTLE_SECONDS
+    assert not processes.fork_is_clean()
+    assert time.monotonic() - t0 >= processes.SETTLE_SECONDS
     t0 = time.monotonic()
-    assert not face_pool.fork_is_clean() and not face_pool.fork_is_safe()
-    assert time.monotonic() - t0 < face_pool.SETTLE_SECONDS / 2
+    assert not processes.fork_is_clean() and not processes.fork_is_safe()
+    assert time.monotonic() - t0 < processes.SETTLE_SECONDS / 2
 
 
 def _square(i):
@@ -123,14 +123,14 @@ def _dies_on_one(i):
 @forks
 def test_map_faces_order_progress_and_errors():
     seen = []
-    assert face_pool.map_faces(_square, 5, 2, cost=[1, 5, 2, 4, 3], on_done=lambda i, r: seen.append(i)) \
+    assert processes.map_faces(_square, 5, 2, cost=[1, 5, 2, 4, 3], on_done=lambda i, r: seen.append(i)) \
         == [0, 1, 4, 9, 16]
     assert sorted(seen) == list(range(5))
-    assert face_pool.map_faces(_square, 3, 1) == [0, 1, 4]
+    assert processes.map_faces(_square, 3, 1) == [0, 1, 4]
     with pytest.raises(InputError, match="face 2 is broken"):
-        face_pool.map_faces(_fails_on_two, 4, 2)
+        processes.map_faces(_fails_on_two, 4, 2)
     with pytest.raises(InputError, match="worker process died while integrating .*Face2"):
-        face_pool.map_faces(_dies_on_one, 3, 2, labels=["Face1", "Face2", "Face3"])
+        processes.map_faces(_dies_on_one, 3, 2, labels=["Face1", "Face2", "Face3"])
 
 
 _PARENT = os.getpid()
@@ -157,29 +157,29 @@ def _raises_unpicklable(i):
 def test_forked_call_raises_here_what_the_child_could_not_send():
     # the child leaves without sending (it never returns into the caller's code); the call
     # is made here and raises here
-    call = face_pool.ForkedCall(lambda: _raises_unpicklable(1))
+    call = processes.ForkedCall(lambda: _raises_unpicklable(1))
     assert call.pid is not None
     with pytest.raises(Exception, match="item 1"):
         call.result()
-    assert face_pool.ForkedCall(lambda: 6 * 7).result() == 42
+    assert processes.ForkedCall(lambda: 6 * 7).result() == 42
 
 
 @needs_fork
 @forks
 def test_map_forked_same_results_here_or_in_children():
     calls = []
-    here = face_pool.map_forked(_where, 3, 1, while_waiting=lambda: calls.append("wait"))
-    forked = face_pool.map_forked(_where, 3, 3, while_waiting=lambda: calls.append("wait"))
+    here = processes.map_forked(_where, 3, 1, while_waiting=lambda: calls.append("wait"))
+    forked = processes.map_forked(_where, 3, 3, while_waiting=lambda: calls.append("wait"))
     assert [r for r, _ in here] == [r for r, _ in forked] == [0, 1, 4]
     assert all(local for _, local in here)
     assert [local for _, local in forked] == [True, False, False]  # item 0 here, the others forked
     assert calls == ["wait", "wait"]
-    two = face_pool.map_forked(_where, 4, 2)  # more items than processes: the rest run here
+    two = processes.map_forked(_where, 4, 2)  # more items than processes: the rest run here
     assert [r for r, _ in two] == [0, 1, 4, 9] and [local for _, local in two] == [True, False, True, True]
     with pytest.raises(InputError, match="face 2 is broken"):
-        face_pool.map_forked(_fails_on_two, 3, 3)
+        processes.map_forked(_fails_on_two, 3, 3)
     # a child that dies before sending: its item is done here, with the same result
-    assert face_pool.map_forked(_dies_in_a_child, 3, 3) == [10, 11, 12]
+    assert processes.map_forked(_dies_in_a_child, 3, 3) == [10, 11, 12]
 
 
 @needs_freecad
@@ -228,7 +228,7 @@ def test_a_face_assessed_alone_is_integrated_in_patch_groups():
 @forks
 def test_lref_tessellation_in_a_child_is_the_one_made_here():
     from hullprod_wb.examples.analytic_shapes import hemisphere_with_disc
-    from hullprod_wb.brep.lref_samples import LrefTessellation, tessellate_faces
+    from hullprod_wb.brep.reading.lref_samples import LrefTessellation, tessellate_faces
     faces = list(hemisphere_with_disc().Faces)
     # the children first: once this process has meshed, it forks no more
     child, killed, unwanted = (LrefTessellation(faces, 0.02) for _ in range(3))
@@ -242,7 +242,7 @@ def test_lref_tessellation_in_a_child_is_the_one_made_here():
     here = tessellate_faces(faces, 0.02)
     assert len(here[0]) > 0 and len(here[1]) > 0 and len(here[0]) % 3 == 0
     assert (pts, tris) == here
-    assert not face_pool.fork_is_clean()  # OpenCascade's mesher has left its threads here
+    assert not processes.fork_is_clean()  # OpenCascade's mesher has left its threads here
     assert LrefTessellation(faces, 0.02).call.pid is None
     # a result no longer wanted: the child is stopped and reaped
     unwanted.close()
@@ -254,7 +254,7 @@ def test_lref_tessellation_in_a_child_is_the_one_made_here():
 def test_a_file_read_ahead_gives_the_values_of_its_shape(tmp_path):
     from hullprod_wb.examples.analytic_shapes import sphere_cap
     from hullprod_wb import assess
-    from hullprod_wb.brep.lref_samples import read_and_start
+    from hullprod_wb.brep.reading.lref_samples import read_and_start
     path = str(tmp_path / "cap.brep")
     sphere_cap(1.0, 0.5).exportBrep(path)
     inp = read_and_start(path)

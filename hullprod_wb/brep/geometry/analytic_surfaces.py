@@ -17,8 +17,8 @@ left-handed frames of mirrored geometry are reproduced.
 """
 import numpy as np
 
-from ..core.errors import InputError
-from .nurbs import _as_points
+from ...core.errors import InputError
+from .nurbs import as_points
 
 
 def _vec(p):
@@ -50,7 +50,7 @@ class AnalyticSurface:
         """S and partial derivatives up to total order ``order``, each (n, 3) float."""
         if order not in (0, 1, 2):
             raise InputError("derivative order must be 0, 1 or 2, got %r" % (order,))
-        u, v = _as_points(u, v)
+        u, v = as_points(u, v)
         coeffs = self._coefficients(u, v, order)
         out = [c @ self.frame for c in coeffs]
         out[0] += self.origin

@@ -10,7 +10,7 @@ become smooth in sigma.
 """
 import numpy as np
 
-from ..core.errors import InputError
+from ...core.errors import InputError
 
 
 def cluster_map(kind, x):
@@ -37,6 +37,17 @@ def cluster_map(kind, x):
         else:
             c[i], dc[i] = 0.5 * (1.0 - np.cos(np.pi * xi)), h * np.sin(np.pi * xi)
     return c, dc
+
+
+#: What the patches read of a trimmed domain (geometry.trimmed_domain.TrimmedDomain).
+DOMAIN_ATTRIBUTES = ("u_range", "v_range", "snap_tol", "breakpoints", "slabs", "u_breakpoints",
+                     "v_line_crossings", "piece_turns", "piece_u_lo", "piece_u_hi", "piece_v", "piece_const_v")
+
+
+def check_domain(caller, domain):
+    """InputError unless domain has what the patches read of a TrimmedDomain."""
+    if not all(hasattr(domain, a) for a in DOMAIN_ATTRIBUTES):
+        raise InputError("%s() needs a TrimmedDomain, got %s" % (caller, type(domain).__name__))
 
 
 class Patches:

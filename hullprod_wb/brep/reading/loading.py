@@ -12,9 +12,9 @@ import re
 from dataclasses import dataclass, field
 from typing import Optional
 
-from ..core.errors import InputError
-from ..core.inputs import describe_file
-from ..freecad_env import import_freecad
+from ...core.errors import InputError
+from ...core.inputs import describe_file
+from ...freecad_env import import_freecad
 
 #: IGES global-section unit flags (parameter 14) -> unit name.
 IGES_UNIT_FLAGS = {1: "inch", 2: "mm", 3: None, 4: "ft", 5: "mile", 6: "m", 7: "km", 8: "mil",

@@ -23,7 +23,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from ..core.errors import InputError
+from ...core.errors import InputError
 
 #: Default relative threshold on J for the regularity test (see module docstring).
 DEFAULT_DEGENERACY_EPS = 1e-10

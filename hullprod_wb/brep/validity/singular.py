@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .nurbs import grid_points
-from .cubature import integrate
-from .trimmed_domain import TrimmedDomain
+from ..cubature.cells import grid_points
+from ..cubature import integrate
+from ..geometry.trimmed_domain import TrimmedDomain
 
 #: J / max(E, G) below this is degenerate.
 DEGENERATE_RTOL = 1e-8

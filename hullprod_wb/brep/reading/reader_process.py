@@ -5,11 +5,11 @@ parallel mesher starts a thread pool that a process forked afterwards inherits i
 it cannot use (the child then waits forever). So every read of a user's file runs in a
 child (ReaderProcess) started from a clean process:
 
-- forked, when this process has a single thread (face_pool.single_threaded: nothing in it
-  has meshed, no BLAS or GUI threads run), which is the command line's case and costs
-  about a millisecond;
-- else a fresh interpreter (subprocess, the same Python and package), which is what a
-  script that has meshed, the FreeCAD GUI's console or a batch worker gets.
+- forked, when this process has a single thread (core.processes.fork_is_clean: nothing in
+  it has meshed, no BLAS or GUI threads run), which is the command line's case;
+- else a fresh interpreter (subprocess, the same Python and package, with the runtime
+  settings of core.runtime), which is what a script that has meshed, the FreeCAD GUI's
+  console or a batch worker gets.
 
 The child runs a task (a generator function named by module and name, whose arguments
 are plain data) and sends each frame it yields, pickled, through a pipe; a frame's STAGE
@@ -25,7 +25,8 @@ import struct
 import sys
 import time
 
-from ..core.errors import InputError, ReaderDied
+from ...core import runtime
+from ...core.errors import InputError, ReaderDied
 
 #: Key of a frame that only tells the parent what the child does next.
 STAGE = "stage"
@@ -35,11 +36,12 @@ ERROR, INTERNAL = "error", "internal"
 #: Readers' names by file extension, for the message of a child that died while reading.
 READER_NAMES = {".igs": "IGES", ".iges": "IGES", ".stp": "STEP", ".step": "STEP", ".brep": "BRep"}
 #: The folder that holds this hullprod_wb package (the fresh interpreter imports it from there).
-PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 
 
 def reader_name(path):
-    """'IGES', 'STEP', 'BRep' or 'OpenCascade' (other extensions) for the file at path."""
+    """'IGES', 'STEP', 'BRep' (READER_NAMES, by extension), or 'file' for another extension,
+    for the file at path: the reader named in a message."""
     return READER_NAMES.get(os.path.splitext(str(path))[1].lower(), "file")
 
 
@@ -135,7 +137,7 @@ class ReaderProcess:
     the child."""
 
     def __init__(self, path, task, args):
-        from .face_pool import fork_is_clean
+        from ...core.processes import fork_is_clean
         self.path, self.stage = path, None
         self.deadline = time.monotonic() + read_time_limit(path)
         self.owner = os.getpid()
@@ -160,12 +162,13 @@ class ReaderProcess:
                 self._pid = pid
             else:
                 code = ("import sys; sys.path.insert(0, %r); "
-                        "from hullprod_wb.brep.reader_process import child_main; child_main()" % PACKAGE_ROOT)
+                        "from hullprod_wb.brep.reading.reader_process import child_main; child_main()" % PACKAGE_ROOT)
                 import subprocess
                 payload = pickle.dumps((task, args), pickle.HIGHEST_PROTOCOL).hex()
                 safe_path = ["-P"] if sys.version_info >= (3, 11) else []  # no current directory first
                 self._popen = subprocess.Popen([python_interpreter()] + safe_path + ["-c", code, str(w), payload],
-                                               pass_fds=(w,), stdin=subprocess.DEVNULL, stdout=2)
+                                               pass_fds=(w,), stdin=subprocess.DEVNULL, stdout=2,
+                                               env=runtime.environment())
         except BaseException:
             os.close(r)
             raise
@@ -229,7 +232,7 @@ class ReaderProcess:
 
     def close(self):
         """Stop (if still running) and reap the child."""
-        from .face_pool import reap
+        from ...core.processes import reap
         if self._fh is not None:
             self._fh.close()
             self._fh = None

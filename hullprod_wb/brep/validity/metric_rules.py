@@ -8,10 +8,10 @@ from typing import Callable
 
 import numpy as np
 
-from ..core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
-from ..core.signature import signature_values
-from ..core.validity import MetricValidity, Status
-from .cubature.settings import CLASS_AREAS, QUANTITIES, ZERO_SCALE
+from ...core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
+from ...core.signature import signature_values
+from ...core.validity import MetricValidity, Qualification, Status
+from ..cubature.settings import CLASS_AREAS, QUANTITIES, ZERO_SCALE
 
 #: The class-area quantities (flat, single, elliptic, saddle).
 CLASS_QUANTITIES = QUANTITIES[CLASS_AREAS]
@@ -132,7 +132,7 @@ class MetricCase:
     disagreeing: list
     fallback: list
     degenerate_count: int
-    opts: dict
+    opts: object  # budget.QuadratureOptions
     evidence: dict
     id_zero: float
 
@@ -161,10 +161,10 @@ class ValidityRule:
 
 
 def _unresolved_reason(case):
-    opts, evidence, rtol = case.opts, case.evidence, case.opts["rtol"]
-    if opts.get("protocol") == "paper":
+    opts, evidence, rtol = case.opts, case.evidence, case.opts.rtol
+    if opts.paper:
         return ("adaptive quadrature did not reach the tolerance %g at depth %d, nor at %d"
-                % (rtol, opts["max_depth"], opts["max_depth"] + 1))
+                % (rtol, opts.max_depth, opts.max_depth + 1))
     return ("the summed error estimate %.3g exceeds the tolerance %.3g (rtol %g of the total) with the "
             "point budget spent on face(s) %s" % (evidence["error_estimate"], evidence["tolerance"], rtol,
                                                   ",".join(map(str, evidence["budget_spent_faces"])) or "none"))
@@ -226,13 +226,13 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
     """Validity record of each signature metric (paper section 4.3): the first of
     VALIDITY_RULES that holds for it, with the evidence of the shape's error budget, then
     I_D's refinement sequence and the polygon trim domains named on every record."""
-    rtol = opts["rtol"]
+    rtol = opts.rtol
     audits = [a for f in faces for a in f.audits]
     verdicts = [a["verdict"] for a in audits]
     deg_count = sum(len(f.degenerate.points) + len(f.degenerate.sides) for f in faces)
-    fallback = [f.number for f in faces if getattr(f.domain, "fallback", None)]
+    fallback = [f.number for f in faces if f.domain.fallback]
     # exact repairs of trim loops (gaps within a vertex's tolerance): no CAUTION, but evidence
-    repaired = [f.number for f in faces if getattr(f.domain, "repairs", None)]
+    repaired = [f.number for f in faces if f.domain.repairs]
     rep, valid = integrals.represented_area, integrals.valid_area
     out = {}
     for m in METRICS:
@@ -245,11 +245,11 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
                     "numerator": _quantity_total(faces, num), "denominator": _quantity_total(faces, den),
                     "points": int(sum(f.quad.n_points for f in faces))}
         evidence["tolerance"] = global_tolerance(faces, num, rtol)
-        if opts.get("protocol") == "paper":
-            evidence.update({"depth_limit": opts["max_depth"], "recheck_depth": opts["max_depth"] + 1,
+        if opts.paper:
+            evidence.update({"depth_limit": opts.max_depth, "recheck_depth": opts.max_depth + 1,
                              "rechecked_faces": [f.number for f in faces if f.quad.rechecked]})
         else:
-            evidence.update({"depth_limit": opts["depth_limit"], "point_budget": opts["point_budget"],
+            evidence.update({"depth_limit": opts.depth_limit, "point_budget": opts.point_budget,
                              "budget_spent_faces": [f.number for f in faces if f.quad.budget_spent]})
         if repaired:
             evidence["repaired_domains"] = repaired
@@ -263,9 +263,9 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
         if m == "I_D" and history:
             rec.evidence["refinement_sequence"] = history
         if fallback and rec.code != "approximate_trim_domain":
-            rec.evidence["approximate_domains"] = fallback
-            rec.reason = (rec.reason + "; " if rec.reason else "") + (
-                "face(s) %s: trim curves do not close, domain from the 3-D edges" % ",".join(map(str, fallback)))
+            rec.qualify(Qualification(
+                "approximate_trim_domain", "face(s) %s: trim curves do not close, domain from the 3-D edges"
+                % ",".join(map(str, fallback)), {"approximate_domains": fallback}, caution=False))
         out[m] = rec
     return out
 

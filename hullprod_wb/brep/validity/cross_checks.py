@@ -5,8 +5,8 @@ import time
 
 import numpy as np
 
-from .cubature import patch_area
-from .occ_records import CROSS_CHECK_POINTS, cross_check_params, occ_reference
+from ..cubature import patch_area
+from ..reading.occ_records import CROSS_CHECK_POINTS, cross_check_params, occ_reference
 
 
 def cross_check_occ(ff, reference=None, n=CROSS_CHECK_POINTS):

@@ -81,7 +81,7 @@ def fit_interpolants(parent, children, idx, grid_inverse, parent_vander):
     return InterpolantFit(C, d, dKJ, vals.min(2), vals.max(2), reg)
 
 
-def _local(x, a, b):
+def local_coordinate(x, a, b):
     return 2.0 * (x - a) / (b - a) - 1.0
 
 
@@ -168,8 +168,8 @@ def cell_values(C, cells, cell, sig, t):
     """J, K, H (m,) of the interpolants C (n, 3, 2o, 2o) of cells (with (n,) s0, s1, t0,
     t1: a cubature.cells.CellSet) at patch coordinates (sig, t) (m,) of the cells cell (m,)."""
     deg = C.shape[-1] - 1
-    PX = legendre_vander(_local(sig, cells.s0[cell], cells.s1[cell]), deg)
-    PE = legendre_vander(_local(t, cells.t0[cell], cells.t1[cell]), deg)
+    PX = legendre_vander(local_coordinate(sig, cells.s0[cell], cells.s1[cell]), deg)
+    PE = legendre_vander(local_coordinate(t, cells.t0[cell], cells.t1[cell]), deg)
     out = np.empty((cell.size, 3))
     for a in range(0, cell.size, CHUNK):
         b = slice(a, a + CHUNK)
@@ -223,7 +223,7 @@ class SegmentField:
         i = np.nonzero(self.use)[0]
         self.coef = np.zeros((c.size, 3, deg + 1))
         if i.size:
-            P = legendre_vander(_local(self.fixed[i], a[i], b[i]), deg)
+            P = legendre_vander(local_coordinate(self.fixed[i], a[i], b[i]), deg)
             self.coef[i] = _restricted_series(C, c[i], P, axis == "t")
         # the same series in powers of the local coordinate z in [-1, 1] (J, K, H rows), by
         # one product for all rows (a stacked product would make one BLAS call per segment)
@@ -239,7 +239,7 @@ class SegmentField:
         i = np.nonzero(use)[0]
         if i.size:
             s = seg[i]
-            P = legendre_vander(_local(x[i], self.x0[s], self.x1[s]), self.coef.shape[2] - 1)
+            P = legendre_vander(local_coordinate(x[i], self.x0[s], self.x1[s]), self.coef.shape[2] - 1)
             J[i], K[i], H[i] = np.einsum("mk,mfk->fm", P, self.coef[s])
         i = np.nonzero(~use)[0]
         if i.size:
@@ -271,7 +271,7 @@ class SegmentField:
 
     def local(self, x, seg):
         """Local coordinates z in [-1, 1] of parameters x (m,) of segments seg (m,)."""
-        return _local(x, self.x0[seg], self.x1[seg])
+        return local_coordinate(x, self.x0[seg], self.x1[seg])
 
     def roots(self, seg, row, offset, a, b, fa, fb, ztol):
         """Zeros x (k,) of series row (0 J, 1 K, 2 H) minus offset (k,) of the segments seg
@@ -400,9 +400,9 @@ def _newton_in_box(cells, cell, s_lo, s_hi, t_lo, t_hi, s_start, t_start, stol, 
     NaN where a step failed or left the box, or TANGENCY_STEPS did not converge."""
     s0, s1 = cells.s0[cell], cells.s1[cell]
     t0, t1 = cells.t0[cell], cells.t1[cell]
-    x, y = _local(s_start, s0, s1), _local(t_start, t0, t1)
-    xl, xh = _local(np.minimum(s_lo, s_hi), s0, s1), _local(np.maximum(s_lo, s_hi), s0, s1)
-    yl, yh = _local(np.minimum(t_lo, t_hi), t0, t1), _local(np.maximum(t_lo, t_hi), t0, t1)
+    x, y = local_coordinate(s_start, s0, s1), local_coordinate(t_start, t0, t1)
+    xl, xh = local_coordinate(np.minimum(s_lo, s_hi), s0, s1), local_coordinate(np.maximum(s_lo, s_hi), s0, s1)
+    yl, yh = local_coordinate(np.minimum(t_lo, t_hi), t0, t1), local_coordinate(np.maximum(t_lo, t_hi), t0, t1)
     xtol = 2.0 * np.broadcast_to(stol, x.shape) / (s1 - s0)
     done = np.zeros(cell.size, bool)
     act = np.arange(cell.size)

@@ -1,0 +1,204 @@
+"""The plain records of a BRep file (occ_records), made by OpenCascade in a child process.
+
+A BRep file's assessment needs OpenCascade only to read the geometry. So a child
+(reader_process: forked from a clean process, else a fresh interpreter) reads the file with
+FreeCAD, turns every face into plain numbers (occ_records.face_record), makes the
+tessellations and the OpenCascade values the records need, and sends them to the parent
+through a pipe, while the parent loads numpy and the numerical modules. A face that
+occ_records does not describe (another surface type, a planar face, a p-curve of another
+type or none) travels as OpenCascade's binary BRep data (loading.faces_to_bytes) and is
+rebuilt in the process that integrates it, which then loads FreeCAD (recorded_shape);
+either way the fields and domains are built from the same numbers as from the faces read
+in that process.
+
+The child sends three frames: FacesFrame, the face records (occ_records.FaceData, with
+OpenCascade's values at the cross-check points and the edges' vertices, and the faces sent
+as data) and the file's description; LrefFrame, the nodes of the automatic-L_ref
+tessellation (and the described faces as data too, for a trimmed domain that needs
+OpenCascade); then, at the lowest priority, LateFrame, what is only needed at the end
+(provenance with OpenCascade's face areas, the display tessellation). The records come
+first, so that the parent sets the faces up while the tessellation runs
+(ReadInChild.lref_ready tells it whether the next frame is there). A child
+that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied.
+
+Nothing here imports numpy: the reading side never loads it.
+"""
+import os
+import time
+from dataclasses import dataclass
+from typing import Optional
+
+from ...freecad_env import import_freecad, versions
+from .loading import faces_to_bytes, load_brep
+from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
+from .occ_records import (CROSS_CHECK_POINTS, DISPLAY_DEFLECTION, FaceData, display_mesh, face_record,
+                          occ_reference, patch_count)
+from .provenance import shape_boxes, shape_provenance
+from .reader_process import STAGE, ReaderProcess
+
+
+#: The key of a frame's record in what the reading process sends (beside reader_process.STAGE).
+FRAME = "frame"
+
+
+@dataclass(frozen=True)
+class FacesFrame:
+    """The first frame: the file's description (info) and units, its faces' records
+    (occ_records.FaceData), the bounding-box diagonal (size), the software versions of the
+    reading side, the seconds the file took to read, and the faces sent as OpenCascade's
+    data (loading.faces_to_bytes; None when every face is described by numbers)."""
+
+    info: dict
+    units: dict
+    faces: list
+    size: float
+    versions: dict
+    read_seconds: float
+    part_faces: Optional[bytes]
+
+
+@dataclass(frozen=True)
+class LrefFrame:
+    """The second frame: the automatic-L_ref tessellation (lref_samples.tessellate_faces:
+    flat points and triangles), the seconds it took, and the described faces as
+    OpenCascade's data too (None when there are none), for a trimmed domain that needs
+    OpenCascade."""
+
+    lref_points: object
+    lref_triangles: object
+    seconds: float
+    described_faces: Optional[bytes]
+
+
+@dataclass(frozen=True)
+class LateFrame:
+    """The last frame: the shape's provenance (with OpenCascade's face areas) and, when the
+    fields were asked for, the display tessellation of every face (occ_records.display_mesh)
+    and its deflection (None otherwise)."""
+
+    provenance: dict
+    display: Optional[list] = None
+    display_deflection: Optional[float] = None
+
+
+def part_record(face, why, number, part):
+    """The FaceData (kind "part") of a face sent as OpenCascade's own data
+    (loading.faces_to_bytes) instead of plain numbers (another surface type, a planar face,
+    a p-curve of another type or none, or a face face_record could not describe), the
+    reason why; the face itself travels in the frame's part_faces, at index part."""
+    try:
+        surface_type = type(face.Surface).__name__
+    except Exception:  # no surface OpenCascade can give: the parent's set-up says so
+        surface_type = "unknown"
+    try:
+        reference = occ_reference(face)
+    except Exception:  # no parameter range: nothing to compare
+        reference = [None] * CROSS_CHECK_POINTS
+    return FaceData(number=number, surface_type=surface_type, kind="part", part=part,
+                    patch_count=patch_count(face), occ_reference=reference, reason=why)
+
+
+def record_frames(path, faces, with_fields, display_deflection):
+    """In the reading process (reader_process): read path with FreeCAD and yield the three
+    frames of its records (see the module doc)."""
+    import_freecad()
+    t = time.perf_counter()
+    inp = load_brep(path, faces, here=True)
+    seconds = time.perf_counter() - t
+    yield {STAGE: "describing the faces"}
+    for frame in _frames(inp, with_fields, display_deflection, seconds):
+        yield frame
+
+
+def _frames(inp, with_fields, display_deflection, read_seconds):
+    """The three frames of the records of a loaded BRepInput (see the module doc), each
+    with what comes after it (reader_process.STAGE)."""
+    boxes = shape_boxes(inp.shape, inp.faces)  # before any tessellation, as when read here
+    size = float(boxes[0].DiagonalLength)
+    faces, as_data, described = [], [], []
+    for number, face in inp.faces:
+        try:
+            rec, why = face_record(face, number, len(described))
+        except Exception as exc:  # OpenCascade cannot give what the record needs: the face as data
+            rec, why = None, "an OpenCascade error (%s)" % " ".join(str(exc).split())
+        if rec is None:
+            rec = part_record(face, why, number, len(as_data))
+            as_data.append(face)
+        else:
+            described.append(face)
+        faces.append(rec)
+    # the records first: the parent sets the faces up while the tessellation runs here
+    yield {FRAME: FacesFrame(inp.info, inp.units, faces, size, versions(), read_seconds,
+                             faces_to_bytes(as_data) if as_data else None),
+           STAGE: "tessellating the faces"}
+    t = time.perf_counter()
+    pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)
+    # with the described faces as data too, for a trimmed domain that needs OpenCascade
+    # (recorded_shape.FaceRecord.part_face): here before any worker process starts
+    yield {FRAME: LrefFrame(pts, tris, time.perf_counter() - t, faces_to_bytes(described) if described else None),
+           STAGE: "computing the faces' areas and display tessellation"}
+    # the rest is needed only at the end: give the CPUs to the integration meanwhile
+    try:
+        os.nice(19)
+    except OSError:
+        pass
+    display = deflection = None
+    if with_fields:
+        deflection = display_deflection or DISPLAY_DEFLECTION * size
+        display = [display_mesh(f, deflection) for _, f in inp.faces]
+    yield {FRAME: LateFrame(shape_provenance(inp.shape, inp.faces, None, boxes), display, deflection)}
+
+
+class ReadInChild:
+    """The records of a BRep file, read by a child started now (reader_process: forked from
+    a clean process, else a fresh interpreter; see the module doc).
+
+    faces_frame(), lref_frame() and late_frame() return the three frames (FacesFrame,
+    LrefFrame, LateFrame) as the child sent them, waiting for them; lref_ready() tells whether
+    lref_frame() would wait. An InputError of the child (an unreadable file, a bad face
+    number) is raised here with its message; a child that ends before sending a frame raises
+    ReaderDied (an InputError) naming the file and what OpenCascade was doing.
+    """
+
+    FRAMES = 3
+
+    def __init__(self, path, faces=None, with_fields=True, display_deflection=None):
+        self.path, self.faces = path, faces
+        self.with_fields, self.display_deflection = with_fields, display_deflection
+        self._frames = []
+        self._child = ReaderProcess(path, (__name__, "record_frames"),
+                                    (path, faces, with_fields, display_deflection))
+
+    def faces_frame(self):
+        """FacesFrame: the faces' records and the file's description."""
+        return self._frame(0)
+
+    def lref_frame(self):
+        """LrefFrame: the automatic-L_ref tessellation and the described faces as data."""
+        return self._frame(1)
+
+    def late_frame(self):
+        """LateFrame: the provenance and the display tessellation."""
+        return self._frame(2)
+
+    def lref_ready(self):
+        """Whether lref_frame() would return without waiting for the child (or the child has
+        ended)."""
+        return self._ready(1)
+
+    def _ready(self, k):
+        """Whether frame k has arrived, or the next frame has begun to arrive."""
+        if len(self._frames) > k:
+            return True
+        if len(self._frames) < k:
+            return False
+        return self._child.ready()
+
+    def _frame(self, k):
+        while len(self._frames) <= k:
+            self._frames.append(self._child.receive(last=len(self._frames) == self.FRAMES - 1)[FRAME])
+        return self._frames[k]
+
+    def close(self):
+        """Stop (if still running) and reap the child."""
+        self._child.close()
