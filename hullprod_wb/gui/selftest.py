@@ -87,12 +87,29 @@ def close_document(doc):
     process(0.05)
 
 
+class commands_registered:
+    """with commands_registered(): the workbench's commands exist (FreeCAD registers them when
+    the workbench is first activated); the workbench active before is active again after."""
+
+    def __enter__(self):
+        import FreeCADGui
+        self.before = FreeCADGui.activeWorkbench().name()
+        FreeCADGui.activateWorkbench(WORKBENCH)
+        self.active = FreeCADGui.activeWorkbench().name()
+        return self
+
+    def __exit__(self, *exc):
+        import FreeCADGui
+        if self.before != WORKBENCH:
+            FreeCADGui.activateWorkbench(self.before)
+
+
 def check_workbench():
     """The workbench activates; its commands and its Verification menu's are registered."""
     import FreeCADGui
     from . import commands, verification_commands
-    FreeCADGui.activateWorkbench(WORKBENCH)
-    active = FreeCADGui.activeWorkbench().name()
+    with commands_registered() as wb:
+        active = wb.active
     check(active == WORKBENCH, "active workbench is %s, not %s" % (active, WORKBENCH))
     listed = set(FreeCADGui.listCommands())
     names = [c.name for c in commands.COMMANDS] + list(verification_commands.MENU)
@@ -146,8 +163,9 @@ def check_analyze_panel():
         before = analyze_panel.LAST_PANEL
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(src)
-        FreeCADGui.runCommand("HullProd_Analyze")
-        process()
+        with commands_registered():
+            FreeCADGui.runCommand("HullProd_Analyze")
+            process()
         p = analyze_panel.LAST_PANEL
         check(p is not None and p is not before, "HullProd_Analyze opened no panel")
         rec = check_seen(p.form, "the Analyze panel")
@@ -170,7 +188,8 @@ def opened_validity_panel(obj):
     try:
         FreeCADGui.Selection.clearSelection()
         FreeCADGui.Selection.addSelection(obj)
-        FreeCADGui.runCommand("HullProd_ValidityPanel")
+        with commands_registered():
+            FreeCADGui.runCommand("HullProd_ValidityPanel")
     finally:
         validity_panel.show_validity_panel = orig
     return got[-1] if got else None

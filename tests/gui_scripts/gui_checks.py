@@ -232,7 +232,8 @@ STATE = {}
 
 @step("workbench")
 def _():
-    registered = selftest.check_workbench()  # activates it, AssertionError if a command is missing
+    registered = selftest.check_workbench()  # AssertionError if a command is missing
+    FreeCADGui.activateWorkbench(selftest.WORKBENCH)  # as a person picks it
     mw = FreeCADGui.getMainWindow()
     mw.resize(1500, 950)
     combo = [d for d in mw.findChildren(QtWidgets.QDockWidget) if d.objectName() in ("Combo View", "ComboView")]
