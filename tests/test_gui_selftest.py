@@ -1,6 +1,6 @@
 """TestHullProdGui as a person runs it from the Test framework right after starting FreeCAD,
 before the HullProd workbench was ever chosen: its four tests pass and the workbench the
-person was in is still active afterwards."""
+person was in is still active afterwards; also where trimesh cannot be imported."""
 import json
 import os
 import shutil
@@ -15,13 +15,15 @@ pytestmark = pytest.mark.skipif(shutil.which("xvfb-run") is None or shutil.which
                                 reason="xvfb-run or freecad not installed")
 
 
-def test_gui_self_test_from_a_fresh_start(tmp_path):
+@pytest.mark.parametrize("without_trimesh", [False, True], ids=["with_trimesh", "without_trimesh"])
+def test_gui_self_test_from_a_fresh_start(tmp_path, without_trimesh):
     home = tmp_path / "home"
     for mod in (home / ".FreeCAD" / "Mod", home / ".local" / "share" / "FreeCAD" / "Mod"):
         mod.mkdir(parents=True)
         (mod / "HullProd").symlink_to(ROOT)
     out = tmp_path / "result.json"
-    env = dict(os.environ, HOME=str(home), QTWEBENGINE_CHROMIUM_FLAGS="--no-sandbox", HULLPROD_GUI_RESULT=str(out))
+    env = dict(os.environ, HOME=str(home), QTWEBENGINE_CHROMIUM_FLAGS="--no-sandbox", HULLPROD_GUI_RESULT=str(out),
+               HULLPROD_WITHOUT_TRIMESH="1" if without_trimesh else "0")
     env.pop("QT_QPA_PLATFORM", None)
     proc = subprocess.Popen(["xvfb-run", "-a", "-s", "-screen 0 1920x1200x24", "freecad",
                              os.path.join(ROOT, "tests", "gui_scripts", "selftest_first.py")],
@@ -39,3 +41,5 @@ def test_gui_self_test_from_a_fresh_start(tmp_path):
     suite = res["suite"]
     assert suite["run"] >= 4 and suite["failures"] == 0 and suite["errors"] == 0 and suite["skipped"] == 0, suite
     assert res["before"] != "HullProdWorkbench" and res["after"] == res["before"], res
+    if without_trimesh:
+        assert res["trimesh"] is False
