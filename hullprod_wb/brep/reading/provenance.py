@@ -50,6 +50,55 @@ def _on_edges(point, edges, tol):
     return None
 
 
+class BoxIndex:
+    """Axis-aligned boxes bucketed on a uniform grid: near(point) gives, in ascending order,
+    the indices of the boxes that may hold the point (a superset of those that do).
+
+    The grid has about one cell per median box extent along each axis (at most GRID_CELLS
+    along any); a box covering more than LARGE_BOX cells is kept in a list every query
+    returns, so a few large faces cost no more than a list. Finding a face's neighbours then
+    costs about the faces near it, not all faces."""
+
+    GRID_CELLS = 64
+    LARGE_BOX = 512
+
+    def __init__(self, bounds):
+        """bounds: [(xmin, ymin, zmin, xmax, ymax, zmax)] of the boxes."""
+        self.lo = [min(b[k] for b in bounds) for k in range(3)] if bounds else [0.0] * 3
+        hi = [max(b[k + 3] for b in bounds) for k in range(3)] if bounds else [0.0] * 3
+        self.cell = []
+        for k in range(3):
+            span = hi[k] - self.lo[k]
+            extents = sorted(b[k + 3] - b[k] for b in bounds) or [0.0]
+            typical = max(extents[len(extents) // 2], span / self.GRID_CELLS)
+            self.cell.append(typical if typical > 0.0 else 1.0)
+        self.buckets, self.large = {}, []
+        for i, b in enumerate(bounds):
+            lo, hi_ = self._cell_of(b[:3]), self._cell_of(b[3:])
+            count = 1
+            for k in range(3):
+                count *= hi_[k] - lo[k] + 1
+            if count > self.LARGE_BOX:
+                self.large.append(i)
+                continue
+            for cx in range(lo[0], hi_[0] + 1):
+                for cy in range(lo[1], hi_[1] + 1):
+                    for cz in range(lo[2], hi_[2] + 1):
+                        self.buckets.setdefault((cx, cy, cz), []).append(i)
+
+    def _cell_of(self, point):
+        return tuple(int(math.floor((point[k] - self.lo[k]) / self.cell[k])) for k in range(3))
+
+    def near(self, point):
+        """Sorted indices of the boxes that may hold point (x, y, z)."""
+        found = self.buckets.get(self._cell_of(point), [])
+        return sorted(found + self.large) if self.large else found
+
+
+def _bounds(bb):
+    return (bb.XMin, bb.YMin, bb.ZMin, bb.XMax, bb.YMax, bb.ZMax)
+
+
 def shape_boxes(shape, faces):
     """Bounding boxes of shape and of each of faces (list of (number, Part.Face)), to be taken
     before anything is tessellated: OpenCascade's boxes shrink to a triangulation once there
@@ -77,12 +126,14 @@ def edge_report(shape, faces, boxes=None):
         bb = type(bb)(bb)  # a copy, enlarged
         bb.enlarge(tol)
         boxes.append((number, face, bb, [e for e in face.Edges if e.Length > tol]))
+    index = BoxIndex([_bounds(b[2]) for b in boxes])
     for number, face, _, edges in boxes:
         for edge in edges:  # degenerated edges (collapsed sides of a patch) are left out
             ts = _edge_params(edge)
             pts = [edge.valueAt(t) for t in ts]
             partner = None
-            for other, oface, bb, oedges in boxes:
+            # the faces in the order given, among those whose box may hold the first point
+            for other, oface, bb, oedges in (boxes[i] for i in index.near(pts[0])):
                 if other == number or not all(bb.isInside(p) for p in pts):
                     continue
                 hits = []
