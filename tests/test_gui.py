@@ -512,3 +512,28 @@ def test_plate_scale_starts_at_the_smallest_established_plate_above_k_f():
     assert np.allclose(rgb[3], colormaps.ramp(np.array([1.0]))[0])
     assert np.allclose(rgb[4], colormaps.INVALID_RGB)
     assert legend.ticks[0][1] == "<= k_f / 5" and legend.ticks[-1][1] == "8.3e+04"
+
+
+def test_plate_map_low_end_and_no_invalid_sample_on_a_valid_face(gui):
+    """On the fore body analysed in the GUI: no display sample of a VALID or VALID* face is
+    NaN or invalid, none is drawn in the not-established colour under the developability or
+    plate map; the plate map's low end is the smallest established face I_D above k_f, the
+    plates at or below k_f marked as such; the I_D evidence names the unit of its
+    denominator as the represented area beside it does."""
+    from hullprod_wb.gui.wording import area_text
+    rec = step(gui, "plates_low_end_and_samples")
+    if "skipped" in rec:
+        pytest.skip(rec["skipped"])
+    assert rec["established"] > 0 and rec["samples_on_valid"] > 1000
+    assert rec["bad_samples_on_valid"] == 0
+    for mode, r in rec["drawn"].items():
+        assert r["mauve_on_valid"] == 0, mode
+        assert r["n_colors"] == r["n_points"]
+        assert_not_blank(r["png"])
+    low = rec["drawn"]["plates"]["ticks"][0]
+    assert rec["at_or_below_k_f"] > 0 and low.startswith("<= k_f / ")
+    assert float(low.split("/ ")[1]) == pytest.approx(rec["smallest_above_k_f"], rel=1e-3)
+    line = rec["evidence_line"]
+    assert "denominator = %s" % area_text(rec["denominator"], rec["unit"], rec["represented_area"]) in line
+    assert area_text(rec["represented_area"], rec["unit"]) in line
+
