@@ -536,4 +536,6 @@ def test_plate_map_low_end_and_no_invalid_sample_on_a_valid_face(gui):
     line = rec["evidence_line"]
     assert "denominator = %s" % area_text(rec["denominator"], rec["unit"], rec["represented_area"]) in line
     assert area_text(rec["represented_area"], rec["unit"]) in line
+    assert_seen(rec["evidence_seen"], "the evidence line of the validity panel")
+    assert_not_blank(rec["png_validity"])
 

@@ -963,7 +963,6 @@ def _():
     from hullprod_wb.app import analysis_fields, result_document
     from hullprod_wb.app.analysis import length_unit_label
     from hullprod_wb.gui import analyze_panel, colormaps, wording
-    from hullprod_wb.gui.validity_panel import ValidityPanel
     src = open_hull("ship_forebody_part5_overture.igs", "forebody_part5")
     if src is None:
         return {"skipped": "public hulls not present"}
@@ -993,12 +992,17 @@ def _():
                            png=shot("forebody_part5_%s" % mode))
     plates = [wording.face_value(f, "I_D") for f in doc["provenance"]["faces"]]
     above = [v for v in plates if v is not None and v > a.Kf]
-    panel = ValidityPanel(a)
-    return {"faces": len(doc["provenance"]["faces"]), "established": len(established),
+    from hullprod_wb.gui.validity_panel import show_validity_panel
+    panel = show_validity_panel(a)
+    process(300)
+    seen, evidence_line = seen_by_a_person(panel.areas_label), panel.areas_label.text()
+    png_panel = window_shot("forebody_part5_validity", panel.form)
+    FreeCADGui.Control.closeDialog()
+    return {"evidence_seen": seen, "png_validity": png_panel,"faces": len(doc["provenance"]["faces"]), "established": len(established),
             "samples_on_valid": int(on_valid.sum()), "bad_samples_on_valid": int(bad.sum()), "drawn": drawn,
             "k_f": a.Kf, "smallest_above_k_f": min(above) if above else None,
             "at_or_below_k_f": sum(1 for v in plates if v is not None and v <= a.Kf),
-            "evidence_line": panel.areas_label.text(), "unit": length_unit_label(a),
+            "evidence_line": evidence_line, "unit": length_unit_label(a),
             "denominator": doc["validity"]["I_D"]["evidence"]["denominator"],
             "represented_area": doc["integrals"]["represented_area"]}
 
