@@ -995,6 +995,12 @@ def _():
     from hullprod_wb.gui.validity_panel import show_validity_panel
     panel = show_validity_panel(a)
     process(300)
+    w = panel.areas_label  # scrolled to, as a person scrolls the task view to read it
+    while w is not None and not isinstance(w, QtWidgets.QScrollArea):
+        w = w.parentWidget()
+    if w is not None:
+        w.ensureWidgetVisible(panel.areas_label)
+        process(200)
     seen, evidence_line = seen_by_a_person(panel.areas_label), panel.areas_label.text()
     png_panel = window_shot("forebody_part5_validity", panel.form)
     FreeCADGui.Control.closeDialog()
