@@ -471,13 +471,13 @@ def test_flat_invalid_and_zero_read_as_distinct_colours_under_shading(pair):
 
 
 def test_plates_colour_a_valid_zero():
-    """A face with an established I_D of 0 takes the bottom colour of the ramp (marked '0'
-    on the legend); a face without an established I_D takes the invalid colour."""
+    """A face with an established I_D of 0 takes the bottom colour of the ramp (marked
+    '<= k_f' on the legend); a face without an established I_D takes the invalid colour."""
     from hullprod_wb.gui import colormaps
-    rgb, legend = colormaps.plate_colors(np.array([1, 2, 3]), {1: 0.0, 2: 5.0, 3: None})
+    rgb, legend = colormaps.plate_colors(np.array([1, 2, 3]), {1: 0.0, 2: 5.0, 3: None}, 1e-4)
     assert np.allclose(rgb[0], colormaps.ramp(np.array([0.0]))[0])
     assert np.allclose(rgb[2], colormaps.INVALID_RGB)
-    assert not np.allclose(rgb[0], rgb[2]) and legend.ticks[0][1].startswith("0 / ")
+    assert not np.allclose(rgb[0], rgb[2]) and legend.ticks[0][1].startswith("<= k_f / ")
 
 
 def test_scale_presets_linear_and_percentiles():
@@ -498,3 +498,44 @@ def test_scale_presets_linear_and_percentiles():
 def test_preferences_page(gui):
     rec = step(gui, "preferences")
     assert rec["stored"] == 2e-4 and rec["reloaded"] == "0.0001"
+
+
+def test_plate_scale_starts_at_the_smallest_established_plate_above_k_f():
+    """Plates at rounding (0) or numerically flat (1e-9, below k_f) take the bottom colour
+    and do not set the scale: its low end is the smallest established plate above k_f (5),
+    not 1e-9; an unconverged plate (None, however large its number) is not established."""
+    from hullprod_wb.gui import colormaps
+    values = {1: 0.0, 2: 1e-9, 3: 5.0, 4: 8.3e4, 5: None}
+    rgb, legend = colormaps.plate_colors(np.array([1, 2, 3, 4, 5]), values, 1e-4)
+    bottom = colormaps.ramp(np.array([0.0]))[0]
+    assert np.allclose(rgb[0], bottom) and np.allclose(rgb[1], bottom) and np.allclose(rgb[2], bottom)
+    assert np.allclose(rgb[3], colormaps.ramp(np.array([1.0]))[0])
+    assert np.allclose(rgb[4], colormaps.INVALID_RGB)
+    assert legend.ticks[0][1] == "<= k_f / 5" and legend.ticks[-1][1] == "8.3e+04"
+
+
+def test_plate_map_low_end_and_no_invalid_sample_on_a_valid_face(gui):
+    """On the fore body analysed in the GUI: no display sample of a VALID or VALID* face is
+    NaN or invalid, none is drawn in the not-established colour under the developability or
+    plate map; the plate map's low end is the smallest established face I_D above k_f, the
+    plates at or below k_f marked as such; the I_D evidence names the unit of its
+    denominator as the represented area beside it does."""
+    from hullprod_wb.gui.wording import area_text
+    rec = step(gui, "plates_low_end_and_samples")
+    if "skipped" in rec:
+        pytest.skip(rec["skipped"])
+    assert rec["established"] > 0 and rec["samples_on_valid"] > 1000
+    assert rec["bad_samples_on_valid"] == 0
+    for mode, r in rec["drawn"].items():
+        assert r["mauve_on_valid"] == 0, mode
+        assert r["n_colors"] == r["n_points"]
+        assert_not_blank(r["png"])
+    low = rec["drawn"]["plates"]["ticks"][0]
+    assert rec["at_or_below_k_f"] > 0 and low.startswith("<= k_f / ")
+    assert float(low.split("/ ")[1]) == pytest.approx(rec["smallest_above_k_f"], rel=1e-3)
+    line = rec["evidence_line"]
+    assert "denominator = %s" % area_text(rec["denominator"], rec["unit"], rec["represented_area"]) in line
+    assert area_text(rec["represented_area"], rec["unit"]) in line
+    assert_seen(rec["evidence_seen"], "the evidence line of the validity panel")
+    assert_not_blank(rec["png_validity"])
+

@@ -31,7 +31,40 @@ def face_display_mesh(mesh, field):
     _, index = cKDTree(values["points"]).query(P)
     T = index[np.frombuffer(tris, dtype=np.int64).reshape(-1, 3)]
     keep = (T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 0] != T[:, 2])
-    return uv, values, T[keep]
+    return uv, moved_samples(field, uv, values), T[keep]
+
+
+#: Fractions of the way from a node that cannot be evaluated to the mean of its nearest
+#: regular nodes (in (u, v)) tried in turn; the first regular point gives the node's field.
+MOVE_FRACTIONS = (1e-3, 1e-2, 1e-1, 0.5)
+
+
+def moved_samples(field, uv, values, neighbours=3):
+    """values with the field at the nodes that are not regular (or whose K is not finite)
+    taken from (u, v) points moved a fraction (MOVE_FRACTIONS) of the way to the mean of
+    their `neighbours` nearest regular nodes; positions stay the nodes'. A node with no
+    regular point on the way stays as it was (not regular)."""
+    bad = ~(values["regular"] & np.isfinite(values["K"]))
+    good = np.flatnonzero(~bad)
+    if not bad.any() or len(good) == 0:
+        return values
+    from scipy.spatial import cKDTree
+    todo = np.flatnonzero(bad)
+    _, near = cKDTree(uv[good]).query(uv[todo], k=min(neighbours, len(good)))
+    target = uv[good][near.reshape(len(todo), -1)].mean(axis=1)
+    out = dict(values)
+    for k in ("K", "H", "k1", "k2", "regular"):
+        out[k] = np.array(values[k], copy=True)
+    for t in MOVE_FRACTIONS:
+        if len(todo) == 0:
+            break
+        p = uv[todo] + t * (target - uv[todo])
+        f = field(p[:, 0], p[:, 1])
+        ok = f["regular"] & np.isfinite(f["K"])
+        for k in ("K", "H", "k1", "k2", "regular"):
+            out[k][todo[ok]] = f[k][ok]
+        todo, target = todo[~ok], target[~ok]
+    return out
 
 
 def sample_faces(face_fields, deflection, meshes=None):

@@ -182,12 +182,13 @@ def _percent(x):
     return "n/a" if x is None or not np.isfinite(x) else "%.1f %%" % (100.0 * x)
 
 
-def plate_colors(face_id, face_values):
+def plate_colors(face_id, face_values, k_f):
     """Colours of the per-face I_D: face_id (n,) 1-based; face_values {face: I_D or None}.
 
-    Logarithmic over the positive values of the faces; a face with an established I_D of
-    0 (a valid flat plate) takes the bottom colour, marked '0' on the legend; a face
-    without an established I_D is mauve (invalid).
+    Logarithmic from the smallest established I_D above k_f to the largest; a face whose
+    established I_D is at most k_f (flat to the class threshold, eq:class_thresholds, or 0)
+    takes the bottom colour, marked on the legend; a face without an established I_D is
+    mauve (not established).
     """
     fid = np.asarray(face_id, np.int64)
     top = int(max(fid.max(initial=0), max(face_values, default=0))) + 1
@@ -195,19 +196,20 @@ def plate_colors(face_id, face_values):
     for f, v in face_values.items():
         if v is not None and np.isfinite(v) and v >= 0:
             lut[int(f)] = v
-    pos = lut[np.isfinite(lut) & (lut > 0)]
-    lo, hi = (float(pos.min()), float(pos.max())) if len(pos) else (1.0, 10.0)
+    known = np.isfinite(lut)
+    pos = lut[known & (lut > k_f)]
+    lo, hi = (float(pos.min()), float(pos.max())) if len(pos) else (k_f, 10.0 * k_f)
     if hi <= lo * 1.000001:  # one value: a decade around it
         lo, hi = lo / 3.0, hi * 3.0
-    has_zero = bool(np.any(lut[np.isfinite(lut)] == 0))
+    has_low = bool(np.any(lut[known] <= k_f))
     vals = lut[np.clip(fid, 0, top - 1)]
-    t = scaled(np.where(vals == 0, lo, vals), lo, hi, "Logarithmic")
+    t = scaled(np.where(vals <= k_f, lo, vals), lo, hi, "Logarithmic")
     ticks = _ticks(lo, hi, "Logarithmic", fmt=lambda v: "%.4g" % v)
-    if has_zero:
-        ticks[0] = (0.0, "0 / %s" % ticks[0][1])
+    if has_low:
+        ticks[0] = (0.0, "<= k_f / %s" % ticks[0][1])
     return ramp(t), Legend("face I_D (plate view, log scale)", "gradient", SEQUENTIAL, ticks,
                            note="each face coloured by its own I_D%s; mauve: not established"
-                                % ("; bottom colour: 0 (or the smallest)" if has_zero else ""))
+                                % ("; bottom colour: I_D <= k_f = %g (flat, or 0)" % k_f if has_low else ""))
 
 
 def distinct_colors(rgb, decimals=3):

@@ -129,10 +129,8 @@ class ValidityPanel(CloseOnlyPanel):
         ig = self.doc.get("integrals", {})
         rep, valid = ig.get("represented_area") or 0.0, ig.get("valid_area") or 0.0
         share = 100.0 * valid / rep if rep else float("nan")
-        ev = self.doc["validity"]["I_D"].get("evidence", {})
-        ev_text = "; ".join("%s = %s" % (k, wording.format_value(v) if isinstance(v, float) else v)
-                            for k, v in list(ev.items())[:6] if not isinstance(v, (dict, list)))
         units = app_analysis.length_unit_label(self.obj)
+        ev_text = wording.evidence_text(self.doc["validity"]["I_D"].get("evidence", {}), units, rep)
         lab = QtWidgets.QLabel("Represented area %s, valid area %s (%.2f %%).<br>"
                                "Evidence (I_D): %s" % (area_text(rep, units), area_text(valid, units, rep), share,
                                                        ev_text or "none recorded"))
@@ -241,12 +239,18 @@ class ValidityPanel(CloseOnlyPanel):
         t.setHorizontalHeaderLabels(list(FACE_COLUMNS[1:]))
         t.verticalHeader().setVisible(False)
         self.face_rows = []
+        note = wording.unestablished_faces_note(faces, self.doc.get("validity", {}))
+        self.face_note = note
+        if note:
+            lab = QtWidgets.QLabel(note)
+            lab.setWordWrap(True)
+            v.addWidget(lab)
         for i, f in enumerate(faces):
-            a_c = f.get("a_C") or {}
-            cells = ["Face%d" % f["face"], str(f.get("status", "")), wording.format_value(f.get("I_D")),
+            a_c = (f.get("a_C") or {}) if wording.face_value(f, "a_C") is not None else {}
+            shown = {k: wording.format_value(wording.face_value(f, k)) for k in ("I_D", "I_D_plus", "I_D_minus")}
+            cells = ["Face%d" % f["face"], str(f.get("status", "")), shown["I_D"],
                      wording.format_value(f.get("area_share"), 3), area_text(f.get("area"), unit, whole),
-                     f.get("surface_type", ""), wording.format_value(f.get("I_D_plus")),
-                     wording.format_value(f.get("I_D_minus"))]
+                     f.get("surface_type", ""), shown["I_D_plus"], shown["I_D_minus"]]
             cells += [wording.format_value(a_c.get(n), 3) for n in ("flat", "single", "elliptic", "saddle")]
             for j, text in enumerate(cells[1:]):
                 it = _item(text)

@@ -7,7 +7,7 @@ colour bar. The source object is never drawn on or changed.
 import numpy as np
 
 from ..app import analysis as app_analysis
-from . import colormaps, legend as legend_mod
+from . import colormaps, legend as legend_mod, wording
 from .icons import icon
 
 DISPLAY_MODE = "Colour map"
@@ -21,11 +21,7 @@ def face_id_values(obj):
         faces = app_analysis.result_document(obj).get("provenance", {}).get("faces") or []
     except Exception:  # no results yet
         return {}
-    out = {}
-    for rec in faces:
-        status = str(rec.get("status", "VALID"))
-        out[int(rec["face"])] = rec.get("I_D") if status not in ("UNCONVERGED", "SINGULAR", "NOT EVALUATED") else None
-    return out
+    return {int(rec["face"]): wording.face_value(rec, "I_D") for rec in faces}
 
 
 def class_shares(obj):
@@ -52,7 +48,7 @@ def scale_of(vobj):
 def colors_for(obj, fields, mode, scale=None):
     """(n, 3) RGB per display vertex and the Legend for colour map mode (colormaps.MAPS)."""
     if mode == "Plates" and obj.Representation == "brep" and "face_id" in fields.extra:
-        return colormaps.plate_colors(fields.extra["face_id"], face_id_values(obj))
+        return colormaps.plate_colors(fields.extra["face_id"], face_id_values(obj), obj.Kf)
     if mode == "Classes":
         return colormaps.class_colors(fields.class_id, class_shares(obj))
     if mode == "Signed":

@@ -60,3 +60,57 @@ def area_text(value, unit, reference=None):
     if " " in u:
         return "%.6g (%s)\u00b2" % (value, u)
     return "%.6g %s\u00b2" % (value, u)
+
+
+#: Face statuses under which a face's own I_D, I_D+, I_D- and a_C are not established.
+UNESTABLISHED_FACE_STATUSES = ("UNCONVERGED", "SINGULAR", "NOT EVALUATED")
+
+
+def face_value(rec, key):
+    """A face record's own value of key ('I_D', 'I_D_plus', 'I_D_minus', 'a_C'), or None when the
+    face's status leaves it not established (the number it holds is then no value)."""
+    if str(rec.get("status", "VALID")) in UNESTABLISHED_FACE_STATUSES:
+        return None
+    return rec.get(key)
+
+
+def unestablished_faces_note(faces, validity):
+    """The sentence explaining plates that are not established under established totals
+    (e.g. UNCONVERGED plates under a VALID* I_D), or '' when there are none."""
+    bad = [f for f in faces if str(f.get("status")) in UNESTABLISHED_FACE_STATUSES]
+    if not bad:
+        return ""
+    by = {}
+    for f in bad:
+        by.setdefault(str(f["status"]), []).append("Face%d" % f["face"])
+    named = "; ".join("%s: %s" % (s, ", ".join(n[:12]) + (" and %d more" % (len(n) - 12) if len(n) > 12 else ""))
+                      for s, n in sorted(by.items()))
+    total = validity.get("I_D", {}).get("status")
+    text = ("%d plate(s) not established (%s): their own values are not shown, and the plate view "
+            "draws them in the not-established colour." % (len(bad), named))
+    if total in ("VALID", "VALID*") and "UNCONVERGED" in by:
+        text += (" The totals are %s all the same: a face's own integrals must meet its own "
+                 "tolerance, while the totals need the summed error estimates of all faces to "
+                 "meet the tolerance of the totals (one error budget for the shape), and they do."
+                 % total)
+    return text
+
+
+#: Evidence entries that are areas (the denominator of I_D, I_D+, I_D-: A_K, eq:dev).
+AREA_EVIDENCE = ("denominator",)
+
+
+def evidence_text(evidence, unit, reference=None, limit=6):
+    """'key = value; ...' of the first `limit` plain entries of a metric's evidence, the
+    areas (AREA_EVIDENCE) in the unit area_text gives the reference area (so that they read
+    as the represented area beside them does)."""
+    parts = []
+    for k, v in list(evidence.items())[:limit]:
+        if isinstance(v, (dict, list)):
+            continue
+        if k in AREA_EVIDENCE and isinstance(v, (int, float)) and not isinstance(v, bool):
+            text = area_text(v, unit, reference)
+        else:
+            text = format_value(v) if isinstance(v, float) else v
+        parts.append("%s = %s" % (k, text))
+    return "; ".join(parts)

@@ -955,6 +955,65 @@ def _():
     return out
 
 
+@step("plates_low_end_and_samples")
+def _():
+    """The fore body (part5: flat plates at 1e-12 and faces with collapsed sides) through the
+    Analyze panel: the display samples of its VALID and VALID* faces, the not-established
+    colour drawn on them under the developability and plate maps, the plate map's low end
+    against the face records, and the evidence line of the validity panel."""
+    from hullprod_wb.app import analysis_fields, result_document
+    from hullprod_wb.app.analysis import length_unit_label
+    from hullprod_wb.gui import analyze_panel, colormaps, wording
+    src = open_hull("ship_forebody_part5_overture.igs", "forebody_part5")
+    if src is None:
+        return {"skipped": "public hulls not present"}
+    FreeCADGui.activateWorkbench(selftest.WORKBENCH)  # active already unless run alone
+    hull_camera()
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    p = analyze_panel.LAST_PANEL
+    wait_for(lambda: p.processes[0] is None or p.processes[0].state != "loading", 60)
+    a = p.run()[0]
+    FreeCADGui.Control.closeDialog()
+    doc = result_document(a)
+    established = [f["face"] for f in doc["provenance"]["faces"] if f["status"] in ("VALID", "VALID*")]
+    fields = analysis_fields(a)
+    on_valid = np.isin(fields.extra["face_id"], established)
+    bad = on_valid & ~(fields.valid & np.isfinite(fields.K) & np.isfinite(fields.H))
+    drawn = {}
+    for cmd, mode in (("HullProd_ShowDevelopability", "developability"), ("HullProd_ShowPlates", "plates")):
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a)
+        FreeCADGui.runCommand(cmd)
+        process(100)
+        rgb = a.ViewObject.Proxy.coin_colors()
+        mauve = np.all(np.isclose(rgb, colormaps.INVALID_RGB, atol=1e-3), axis=1)
+        drawn[mode] = dict(colour_check(a), mauve_on_valid=int(np.sum(mauve[:len(on_valid)] & on_valid)),
+                           png=shot("forebody_part5_%s" % mode))
+    plates = [wording.face_value(f, "I_D") for f in doc["provenance"]["faces"]]
+    above = [v for v in plates if v is not None and v > a.Kf]
+    from hullprod_wb.gui.validity_panel import show_validity_panel
+    panel = show_validity_panel(a)
+    process(300)
+    w = panel.areas_label  # scrolled to, as a person scrolls the task view to read it
+    while w is not None and not isinstance(w, QtWidgets.QScrollArea):
+        w = w.parentWidget()
+    if w is not None:
+        w.ensureWidgetVisible(panel.areas_label)
+        process(200)
+    seen, evidence_line = seen_by_a_person(panel.areas_label), panel.areas_label.text()
+    png_panel = window_shot("forebody_part5_validity", panel.form)
+    FreeCADGui.Control.closeDialog()
+    return {"evidence_seen": seen, "png_validity": png_panel,"faces": len(doc["provenance"]["faces"]), "established": len(established),
+            "samples_on_valid": int(on_valid.sum()), "bad_samples_on_valid": int(bad.sum()), "drawn": drawn,
+            "k_f": a.Kf, "smallest_above_k_f": min(above) if above else None,
+            "at_or_below_k_f": sum(1 for v in plates if v is not None and v <= a.Kf),
+            "evidence_line": evidence_line, "unit": length_unit_label(a),
+            "denominator": doc["validity"]["I_D"]["evidence"]["denominator"],
+            "represented_area": doc["integrals"]["represented_area"]}
+
+
 @step("preferences")
 def _():
     from hullprod_wb.app import preferences

@@ -9,7 +9,7 @@ from typing import Callable
 import numpy as np
 
 from ...core.constants import CLASS_METRICS, CLASS_NAMES, METRICS
-from ...core.signature import signature_values
+from ...core.signature import K_METRICS, rounding_bound, signature_values
 from ...core.validity import MetricValidity, Qualification, Status
 from ..cubature.settings import CLASS_AREAS, QUANTITIES, ZERO_SCALE
 
@@ -84,6 +84,7 @@ def face_records(faces, integrals, lref):
             status = Status.VALID
         rows.append({
             "face": f.number, "surface_type": f.surface_type, "evaluation": f.kind,
+            "rounding_bound": rounding_bound(vals["I_D"]),
             "area": r.values["A"], "valid_area": r.values["A_valid"],
             "area_share": r.values["A_valid"] / A_tot if A_tot > 0 else None,
             "K_share": r.values["int_abs_K"] / K_tot if K_tot > 0 else None,
@@ -253,6 +254,8 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
                              "budget_spent_faces": [f.number for f in faces if f.quad.budget_spent]})
         if repaired:
             evidence["repaired_domains"] = repaired
+        if m in K_METRICS:
+            evidence.update(rounding_evidence(values, m, evidence["numerator"]))
         case = MetricCase(m, den == "A_valid", conv, valid, audits, verdicts, history,
                           disagreeing_refinements(faces, num, den, rtol), fallback, deg_count, opts, evidence,
                           ZERO_SCALE * k_f)
@@ -268,6 +271,14 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
                 % ",".join(map(str, fallback)), {"approximate_domains": fallback}, caution=False))
         out[m] = rec
     return out
+
+
+def rounding_evidence(values, m, numerator):
+    """rounding_bound: the value at or below which the K metric m counts as 0 (core/signature
+    rounding_bound of I_D), and at_rounding: whether m was set to 0 from a non-zero integral
+    (the evidence's numerator keeps that integral)."""
+    bound = rounding_bound(values["I_D"])
+    return {"rounding_bound": bound, "at_rounding": bool(values[m] == 0.0 and numerator != 0.0)}
 
 
 def disagreeing_refinements(faces, num, den, rtol):
