@@ -99,7 +99,7 @@ class AnalyzePanel:
         self.lref_edit.setEnabled(False)
         self.explicit_radio.toggled.connect(self.lref_edit.setEnabled)
         self.method_label = QtWidgets.QLabel("<small>method: principal-axis span of the surface's area, "
-                                             "from a tessellation (paper eq:refs)</small>")
+                                             "from a tessellation</small>")
         self.method_label.setWordWrap(True)
         self.whole_note = QtWidgets.QLabel()
         self.whole_note.setWordWrap(True)
