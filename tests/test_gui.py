@@ -525,3 +525,20 @@ def test_compare_lists_analyses_of_every_open_document(gui):
     assert rec["compared"] == rec["listed"] and rec["columns"] == 2 and rec["retabled"] == 2
     assert any("L_ref differs" in f for f in rec["flags"])
     assert "two or more" in rec["note_one_ticked"]
+
+
+@pytest.mark.parametrize("size", ["1280x720", "1600x1000"])
+def test_panels_fit_the_default_combo_view(gui, size):
+    """Every shown widget of the Analyze, validity, probe and compare panels ends inside the
+    task view's visible width (or the task view scrolls sideways); the reason column of the
+    validity table holds a phrase, not one word per line."""
+    rec = step(gui, "panels_fit_and_speak_plainly")[size]
+    for panel in ("analyze", "validity", "probe", "compare"):
+        assert rec[panel] == [], (panel, rec["combo_width"])
+    assert rec["reason_chars"] >= 24, rec
+
+
+def test_no_paper_label_in_what_the_gui_shows(gui):
+    rec = step(gui, "panels_fit_and_speak_plainly")
+    assert rec["texts_checked"] > 100
+    assert rec["labels_seen"] == []

@@ -1114,4 +1114,129 @@ def _():
     return {"errors": errors, "listed": listed, "compared": compared, "documents": documents, "columns": columns,
             "flags": p.cmp["flags"] if p.cmp else [], "note_one_ticked": note, "retabled": retabled}
 
+
+def shown_texts(root):
+    """Every text a person can read in a widget tree: labels, buttons, titles, tool tips,
+    table and tree cells and headers, list rows, combo box entries."""
+    out = []
+    for w in [root] + root.findChildren(QtWidgets.QWidget):
+        out += [w.toolTip()]
+        for attr in ("text", "title", "placeholderText"):
+            f = getattr(w, attr, None)
+            if callable(f) and not isinstance(w, QtWidgets.QAbstractItemView):
+                try:
+                    v = f()
+                except TypeError:
+                    continue
+                if isinstance(v, str):
+                    out.append(v)
+        if isinstance(w, QtWidgets.QComboBox):
+            out += [w.itemText(i) for i in range(w.count())]
+        if isinstance(w, QtWidgets.QTableWidget):
+            out += [w.item(i, j).text() for i in range(w.rowCount()) for j in range(w.columnCount()) if w.item(i, j)]
+            out += [w.item(i, j).toolTip() for i in range(w.rowCount()) for j in range(w.columnCount()) if w.item(i, j)]
+            out += [w.horizontalHeaderItem(j).text() for j in range(w.columnCount()) if w.horizontalHeaderItem(j)]
+            out += [w.verticalHeaderItem(i).text() for i in range(w.rowCount()) if w.verticalHeaderItem(i)]
+        if isinstance(w, QtWidgets.QTreeWidget):
+            it = QtWidgets.QTreeWidgetItemIterator(w)
+            while it.value():
+                out += [it.value().text(c) for c in range(w.columnCount())]
+                it += 1
+        if isinstance(w, QtWidgets.QListWidget):
+            out += [w.item(i).text() for i in range(w.count())]
+    return [t for t in out if t]
+
+
+def clipped_widgets(panel):
+    """Shown widgets of panel whose right edge lies beyond the visible width of the scroll
+    area holding the panel (the task view), when that area shows no horizontal scroll bar."""
+    area, w = None, panel.parentWidget()
+    while w is not None and area is None:
+        area = w if isinstance(w, QtWidgets.QScrollArea) else None
+        w = w.parentWidget()
+    if area is None or area.horizontalScrollBar().isVisible():
+        return []
+    vp = area.viewport()
+    right = vp.mapToGlobal(QtCore.QPoint(vp.width(), 0)).x()
+    return ["%s(%s) %d > %d" % (type(c).__name__, c.objectName() or getattr(c, "text", lambda: "")()[:30],
+                                c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x(), right)
+            for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible()
+            and c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x() > right + 1]
+
+
+@step("panels_fit_and_speak_plainly")
+def _():
+    """The Analyze, validity, probe and compare panels at 1280x720 and 1600x1000 with the
+    combo view at FreeCAD's default width: no widget is cut off on the right without a
+    scroll bar, the validity table's reason column is wide enough to read, and no text
+    shown (nor any property description of the analysis) carries a label of the paper."""
+    from hullprod_wb.gui import analyze_panel, validity_panel, probe, compare_panel
+    from hullprod_wb.gui.wording import PAPER_LABEL
+    from hullprod_wb.app import make_analysis
+    doc, a = analysed_mesh("PanelsFit", "FitHull")
+    b = make_analysis(a.Source, lref=1.2, label="FitHull_analysis_2")
+    FreeCADGui.ActiveDocument = FreeCADGui.getDocument(doc.Name)
+    mw = FreeCADGui.getMainWindow()
+    combo = [d for d in mw.findChildren(QtWidgets.QDockWidget) if d.objectName() in ("Combo View", "ComboView")]
+    out, texts = {}, []
+    for w, h in ((1280, 720), (1600, 1000)):
+        mw.showNormal()
+        mw.resize(w, h)
+        if combo:  # FreeCAD's default: the dock at its own size hint
+            mw.resizeDocks(combo, [combo[0].sizeHint().width()], QtCore.Qt.Horizontal)
+        process(200)
+        rec = {"combo_width": combo[0].width() if combo else None}
+        a.Source.ViewObject.Visibility = True  # a hidden object cannot be selected
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a.Source)
+        before = analyze_panel.LAST_PANEL
+        FreeCADGui.runCommand("HullProd_Analyze")
+        process(200)
+        p = analyze_panel.LAST_PANEL
+        assert p is not before, "Analyze opened no panel"
+        p.advanced.setChecked(True)
+        process(100)
+        rec["analyze"] = clipped_widgets(p.form)
+        texts += shown_texts(p.form)
+        window_shot("panel_fit_analyze_%dx%d" % (w, h), p.form)
+        FreeCADGui.Control.closeDialog()
+        vpanel = validity_panel.show_validity_panel(a)
+        process(200)
+        rec["validity"] = clipped_widgets(vpanel.form)
+        t = vpanel.signature_table
+        rec["reason_chars"] = t.columnWidth(3) // max(1, t.fontMetrics().averageCharWidth())
+        vpanel.detail_button.setChecked(True)
+        process(50)
+        texts += shown_texts(vpanel.form)
+        window_shot("panel_fit_validity_%dx%d" % (w, h), vpanel.form)
+        FreeCADGui.Control.closeDialog()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a)
+        FreeCADGui.runCommand("HullProd_Probe")
+        process(100)
+        pp = probe.ACTIVE
+        from hullprod_wb.app import analysis_fields
+        f = analysis_fields(a)
+        pp.probe(a, f.points[f.triangles[len(f.triangles) // 2]].mean(axis=0))
+        process(50)
+        rec["probe"] = clipped_widgets(pp.form)
+        texts += shown_texts(pp.form)
+        FreeCADGui.Control.closeDialog()
+        cp = compare_panel.show_compare_panel([a, b])
+        process(100)
+        rec["compare"] = clipped_widgets(cp.form)
+        texts += shown_texts(cp.form)
+        FreeCADGui.Control.closeDialog()
+        out["%dx%d" % (w, h)] = rec
+    texts += [a.getDocumentationOfProperty(n) for n in a.PropertiesList]
+    texts += [a.ViewObject.getDocumentationOfProperty(n) for n in a.ViewObject.PropertiesList]
+    out["labels_seen"] = sorted({t[:120] for t in texts if PAPER_LABEL.search(t)})
+    out["texts_checked"] = len(texts)
+    mw.resize(1500, 950)
+    if combo:
+        mw.resizeDocks(combo, [560], QtCore.Qt.Horizontal)
+    process(100)
+    FreeCAD.closeDocument(doc.Name)
+    return out
+
 finish()
