@@ -61,7 +61,8 @@ UNTRACKED_DIRS = {".git", "__pycache__", ".pytest_cache"}
 def working_tree_files():
     """The working tree's files that a commit of it would hold: git's tracked and untracked,
     not ignored files; where git is missing (the chroots), every file but caches and .git."""
-    if shutil.which("git") and os.path.isdir(os.path.join(ROOT, ".git")):
+    # .git is a folder in a clone and a file (a pointer to the repository) in a git worktree
+    if shutil.which("git") and os.path.exists(os.path.join(ROOT, ".git")):
         p = subprocess.run(["git", "-C", ROOT, "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
                            capture_output=True)
         if p.returncode == 0:  # not, say, where git refuses a checkout another user owns
@@ -71,7 +72,8 @@ def working_tree_files():
     for folder, dirs, files in os.walk(ROOT):
         dirs[:] = [d for d in dirs if d not in UNTRACKED_DIRS]
         rel = os.path.relpath(folder, ROOT)
-        names += [os.path.normpath(os.path.join(rel, n)) for n in files if not n.endswith(".pyc")]
+        names += [os.path.normpath(os.path.join(rel, n)) for n in files
+                  if not n.endswith(".pyc") and n not in UNTRACKED_DIRS]
     return sorted(names)
 
 
