@@ -1097,6 +1097,8 @@ def _():
     p = compare_panel.LAST_PANEL
     errors = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
     listed = [p.choice.item(i).text() for i in range(p.choice.count())] if p else []
+    every_open = ["%s: %s" % (d.Label, o.Label) for d in FreeCAD.listDocuments().values() for o in d.Objects
+                  if o.TypeId == a1.TypeId and hasattr(o, "I_D")]
     compared = p.cmp["labels"] if p and p.cmp else []
     columns = p.table.columnCount() if p and p.table is not None else 0
     # untick one: fewer than two, a note and no table; tick it again
@@ -1111,7 +1113,7 @@ def _():
     FreeCADGui.Control.closeDialog()
     for d in (d1, d2):
         FreeCAD.closeDocument(d.Name)
-    return {"errors": errors, "listed": listed, "compared": compared, "documents": documents, "columns": columns,
+    return {"errors": errors, "listed": listed, "compared": compared, "documents": documents, "every_open": every_open, "columns": columns,
             "flags": p.cmp["flags"] if p.cmp else [], "note_one_ticked": note, "retabled": retabled}
 
 
