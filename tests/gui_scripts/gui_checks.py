@@ -1101,11 +1101,13 @@ def _():
                   if o.TypeId == a1.TypeId and hasattr(o, "I_D")]
     compared = p.cmp["labels"] if p and p.cmp else []
     columns = p.table.columnCount() if p and p.table is not None else 0
-    # untick one: fewer than two, a note and no table; tick it again
-    p.choice.item(0).setCheckState(QtCore.Qt.Unchecked)
+    # one left ticked: a note and no table; all ticked again
+    for i in range(1, p.choice.count()):
+        p.choice.item(i).setCheckState(QtCore.Qt.Unchecked)
     process(20)
     note = p.flags_label.text()
-    p.choice.item(0).setCheckState(QtCore.Qt.Checked)
+    for i in range(1, p.choice.count()):
+        p.choice.item(i).setCheckState(QtCore.Qt.Checked)
     process(20)
     retabled = p.table.columnCount() if p.table is not None else 0
     window_shot("compare_documents")
