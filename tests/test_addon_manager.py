@@ -60,9 +60,9 @@ UNTRACKED_DIRS = {".git", "__pycache__", ".pytest_cache"}
 
 def working_tree_files():
     """The working tree's files that a commit of it would hold: git's tracked and untracked,
-    not ignored files; where git is missing (the chroots), every file but caches and .git (a
-    folder, or in a git worktree a file naming the repository's folder)."""
-    if shutil.which("git") and os.path.lexists(os.path.join(ROOT, ".git")):
+    not ignored files; where git is missing (the chroots), every file but caches and .git."""
+    # .git is a folder in a clone and a file (a pointer to the repository) in a git worktree
+    if shutil.which("git") and os.path.exists(os.path.join(ROOT, ".git")):
         p = subprocess.run(["git", "-C", ROOT, "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
                            capture_output=True)
         if p.returncode == 0:  # not, say, where git refuses a checkout another user owns
@@ -72,7 +72,8 @@ def working_tree_files():
     for folder, dirs, files in os.walk(ROOT):
         dirs[:] = [d for d in dirs if d not in UNTRACKED_DIRS]
         rel = os.path.relpath(folder, ROOT)
-        names += [os.path.normpath(os.path.join(rel, n)) for n in files if not n.endswith(".pyc") and n != ".git"]
+        names += [os.path.normpath(os.path.join(rel, n)) for n in files
+                  if not n.endswith(".pyc") and n not in UNTRACKED_DIRS]
     return sorted(names)
 
 

@@ -549,3 +549,19 @@ def test_skip_planar_faces_recorded(doc):
     inp = json.loads(a.ResultJSON)["input"]
     assert list(a.FacesUsed) == lateral and inp["planar_faces_left_out"] == planar_faces(cyl.Shape)
     assert a.a_single == pytest.approx(1.0, abs=1e-9)
+
+
+def test_locate_triangle_passes_over_degenerate_triangles_without_warning():
+    """A display mesh may hold zero-area triangles (a collapsed edge, a sliver at a seam):
+    they hold no point, and locating a point near them raises no floating-point warning."""
+    import warnings
+    from hullprod_wb.app.probe import locate_triangle
+    a, b = np.array([0.1, 0.2, 0.3]), np.array([0.4, 0.5, 0.7])
+    # a repeated vertex; three points on one line in floating point; a proper triangle
+    P = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], a, b, a + 3.0 * (b - a)])
+    T = np.array([[3, 4, 3], [3, 4, 5], [0, 1, 2]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        idx, bary, dist = locate_triangle(P, T, (0.25, 0.25, 0.1))
+    assert idx == 2
+    assert np.allclose(bary, [0.5, 0.25, 0.25]) and abs(dist - 0.1) < 1e-12

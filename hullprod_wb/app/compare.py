@@ -62,6 +62,22 @@ def comparison_flags(objs):
     return flags
 
 
+def open_analyses():
+    """Every HullProd analysis of every open document, document by document."""
+    import FreeCAD
+    from .analysis import analyses_in
+    return [a for doc in FreeCAD.listDocuments().values() for a in analyses_in(doc)]
+
+
+def display_labels(objs):
+    """A name per analysis a person can tell apart: its label, with its document's label in
+    front when the analyses come from more than one document."""
+    docs = {o.Document.Name for o in objs}
+    if len(docs) < 2:
+        return [o.Label for o in objs]
+    return ["%s: %s" % (o.Document.Label, o.Label) for o in objs]
+
+
 def compare_analyses(objs):
     """dict(labels, metrics, values {metric: [value or None]}, statuses, context, flags)."""
     objs = list(objs)
@@ -69,7 +85,7 @@ def compare_analyses(objs):
         raise InputError("select two or more HullProd analyses to compare")
     sigs = [signature_of(o) for o in objs]
     return {
-        "labels": [o.Label for o in objs],
+        "labels": display_labels(objs),
         "metrics": list(METRICS),
         "values": {m: [s[m]["value"] for s in sigs] for m in METRICS},
         "statuses": {m: [s[m]["status"] for s in sigs] for m in METRICS},

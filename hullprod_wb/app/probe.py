@@ -32,15 +32,17 @@ def locate_triangle(points, triangles, p):
     d00, d01, d11 = (e0 * e0).sum(1), (e0 * e1).sum(1), (e1 * e1).sum(1)
     d20, d21 = (d * e0).sum(1), (d * e1).sum(1)
     den = d00 * d11 - d01 * d01
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v = (d11 * d20 - d01 * d21) / den
-        w = (d00 * d21 - d01 * d20) / den
+    n = np.cross(e0, e1)
+    area2 = np.linalg.norm(n, axis=1)
+    # a degenerate (zero-area) triangle has no barycentric coordinates: it holds no point
+    proper = (den > 0) & (area2 > 0)
+    safe_den = np.where(proper, den, 1.0)
+    v = np.where(proper, (d11 * d20 - d01 * d21) / safe_den, np.nan)
+    w = np.where(proper, (d00 * d21 - d01 * d20) / safe_den, np.nan)
     u = 1.0 - v - w
     bary = np.column_stack([u, v, w])
-    n = np.cross(e0, e1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        plane = np.abs((d * n).sum(1)) / np.linalg.norm(n, axis=1)
-    inside = np.all(bary >= -1e-6, axis=1) & np.isfinite(plane)
+    plane = np.where(proper, np.abs((d * n).sum(1)) / np.where(proper, area2, 1.0), np.inf)
+    inside = proper & np.all(np.nan_to_num(bary, nan=-1.0) >= -1e-6, axis=1)
     if inside.any():
         idx = int(np.flatnonzero(inside)[np.argmin(plane[inside])])
         return idx, bary[idx], float(plane[idx])

@@ -66,6 +66,17 @@ class AnalyzePanel:
         self.form = QtWidgets.QWidget()
         self.form.setWindowTitle("HullProd: analyse")
         lay = QtWidgets.QVBoxLayout(self.form)
+        self._add_sources(lay, ignored)
+        self._add_run_state(lay)
+        self._add_lref_box(lay)
+        self._add_tolerances(lay, d)
+        self._add_planar_choice(lay)
+        self._add_quadrature(lay, d)
+        lay.addStretch(1)
+        self._start_runs()
+
+    def _add_sources(self, lay, ignored):
+        """What is assessed, and the selected sub-elements that are not."""
         src = QtWidgets.QLabel("<b>Assess</b><br>" + "<br>".join(_describe(o, f) for o, f in self.sources))
         src.setWordWrap(True)
         lay.addWidget(src)
@@ -76,8 +87,10 @@ class AnalyzePanel:
                                        % ", ".join(ignored))
         self.ignored_label.setVisible(bool(ignored))
         lay.addWidget(self.ignored_label)
-        # the run's state near OK and Cancel, where it stays in view however tall the
-        # settings below grow (the task view scrolls)
+
+    def _add_run_state(self, lay):
+        """Progress bar and message, near OK and Cancel: in view however tall the settings
+        below grow (the task view scrolls)."""
         self.bar = QtWidgets.QProgressBar()
         self.bar.setRange(0, 1000)
         self.bar.setValue(0)
@@ -86,6 +99,8 @@ class AnalyzePanel:
         lay.addWidget(self.bar)
         lay.addWidget(self.message)
 
+    def _add_lref_box(self, lay):
+        """L_ref: automatic (principal-axis span) or explicit."""
         box = QtWidgets.QGroupBox("Reference length L_ref")
         g = QtWidgets.QGridLayout(box)
         units = _units(self.sources[0][0])
@@ -99,7 +114,7 @@ class AnalyzePanel:
         self.lref_edit.setEnabled(False)
         self.explicit_radio.toggled.connect(self.lref_edit.setEnabled)
         self.method_label = QtWidgets.QLabel("<small>method: principal-axis span of the surface's area, "
-                                             "from a tessellation (paper eq:refs)</small>")
+                                             "from a tessellation</small>")
         self.method_label.setWordWrap(True)
         self.whole_note = QtWidgets.QLabel()
         self.whole_note.setWordWrap(True)
@@ -116,6 +131,8 @@ class AnalyzePanel:
         g.addWidget(self.lref_unit, 4, 2)
         lay.addWidget(box)
 
+    def _add_tolerances(self, lay, d):
+        """The class tolerances h_f, k_f (tau_H = h_f / L_ref, tau_K = k_f / L_ref^2)."""
         box = QtWidgets.QGroupBox("Curvature-class tolerances")
         f = QtWidgets.QFormLayout(box)
         self.hf_edit = _float_edit(d["h_f"], "dimensionless mean-curvature tolerance; tau_H = h_f / L_ref")
@@ -124,6 +141,8 @@ class AnalyzePanel:
         f.addRow("k_f", self.kf_edit)
         lay.addWidget(box)
 
+    def _add_planar_choice(self, lay):
+        """Leave out planar faces (deck, transom), naming them."""
         self.planar_check = QtWidgets.QCheckBox("Leave out planar faces (deck, transom)")
         self.planar_check.setToolTip("faces that lie in a plane are not assessed; the result records them")
         self.planar = [planar_faces(o.Shape, f) if hasattr(o, "Shape") else [] for o, f in self.sources]
@@ -137,6 +156,8 @@ class AnalyzePanel:
         lay.addWidget(self.planar_check)
         lay.addWidget(self.planar_label)
 
+    def _add_quadrature(self, lay, d):
+        """Advanced BRep quadrature settings (order, tolerance, protocol, budget, depths)."""
         self.advanced = QtWidgets.QGroupBox("Advanced: BRep quadrature")
         self.advanced.setCheckable(True)
         self.advanced.setChecked(False)
@@ -187,7 +208,8 @@ class AnalyzePanel:
             self.advanced.setToolTip("meshes are assessed by discrete curvature; no quadrature")
         lay.addWidget(self.advanced)
 
-        lay.addStretch(1)
+    def _start_runs(self):
+        """Poll timer; an assessment process per source, closed with the form."""
         self.timer = QtCore.QTimer(self.form)
         self.timer.setInterval(POLL_MS)
         self.timer.timeout.connect(self.poll)

@@ -153,14 +153,19 @@ class Probe(_Command):
 class Compare(_Command):
     name = "HullProd_Compare"
     menu = "&Compare analyses"
-    tip = "Two or more selected analyses side by side, flagging comparisons that are not like for like"
+    tip = ("Analyses of every open document side by side (the selected ones ticked), flagging "
+           "comparisons that are not like for like")
 
     def run(self):
-        found = analyses_from_selection(FreeCADGui.Selection.getSelection())
-        if len(found) < 2:
-            raise InputError("select two or more HullProd analyses (Ctrl+click in the tree) to compare")
+        from ..app.compare import open_analyses
+        every = open_analyses()
+        if len(every) < 2:
+            raise InputError("there %s %d HullProd analysis in the open documents: Compare needs two or more "
+                             "(run Analyze on another hull, or open its document)"
+                             % ("is" if len(every) == 1 else "are", len(every)))
+        chosen = analyses_from_selection(FreeCADGui.Selection.getSelection("*"))
         from .compare_panel import show_compare_panel
-        show_compare_panel(found)
+        show_compare_panel(chosen if len(chosen) >= 2 else every, every)
 
 
 class Export(_Command):

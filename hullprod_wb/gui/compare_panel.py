@@ -7,6 +7,9 @@ from ..core.constants import METRIC_LABELS
 from . import wording
 from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
+#: The compare panel shown last (scripts and tests read it).
+LAST_PANEL = None
+
 
 def chart_png(cmp, width_in=6.4, height_in=3.6, dpi=110):
     """PNG bytes of the grouped bar chart: I_D, I_D+, I_D- (left), class fractions (right).
@@ -46,35 +49,73 @@ def chart_png(cmp, width_in=6.4, height_in=3.6, dpi=110):
 
 
 class ComparePanel(CloseOnlyPanel):
-    """Task panel: flags, table of values and statuses, bar chart."""
+    """Task panel: the analyses to compare (every open document's, ticked ones compared),
+    flags, table of values and statuses, bar chart."""
 
-    def __init__(self, analyses):
-        self.analyses = list(analyses)
-        self.cmp = compare_analyses(self.analyses)
+    def __init__(self, analyses, candidates=None):
+        global LAST_PANEL
+        LAST_PANEL = self
+        self.candidates = list(candidates or analyses)
+        chosen = {(a.Document.Name, a.Name) for a in analyses}
         self.form = QtWidgets.QWidget()
         self.form.setWindowTitle("HullProd compare")
-        lay = QtWidgets.QVBoxLayout(self.form)
+        self.layout = QtWidgets.QVBoxLayout(self.form)
+        self.choice = self._choice_list(chosen)
+        self.layout.addWidget(self.choice)
+        self.flags_label = QtWidgets.QLabel()
+        self.flags_label.setWordWrap(True)
+        self.layout.addWidget(self.flags_label)
+        self.table = None
+        self.chart = QtWidgets.QLabel()
+        self.layout.addWidget(self.chart)
+        self.refresh()
+        self.choice.itemChanged.connect(lambda *args: self.refresh())
+
+    def _choice_list(self, chosen):
+        """One tickable row per analysis of the open documents, named with its document."""
+        box = QtWidgets.QListWidget()
+        for a, text in zip(self.candidates, ["%s: %s" % (a.Document.Label, a.Label) for a in self.candidates]):
+            it = QtWidgets.QListWidgetItem(text)
+            it.setFlags(it.flags() | QtCore.Qt.ItemIsUserCheckable)
+            it.setCheckState(QtCore.Qt.Checked if (a.Document.Name, a.Name) in chosen else QtCore.Qt.Unchecked)
+            box.addItem(it)
+        box.setMaximumHeight(22 * min(len(self.candidates), 6) + 8)
+        return box
+
+    def ticked(self):
+        """The analyses whose rows are ticked, in list order."""
+        return [a for i, a in enumerate(self.candidates) if self.choice.item(i).checkState() == QtCore.Qt.Checked]
+
+    def refresh(self):
+        """Compare the ticked analyses: flags, table and chart (a note when fewer than two)."""
+        self.analyses = self.ticked()
+        if self.table is not None:
+            self.layout.removeWidget(self.table)
+            self.table.deleteLater()
+            self.table = None
+        self.png = None
+        self.chart.clear()
+        if len(self.analyses) < 2:
+            self.cmp = None
+            self.flags_label.setText("Tick two or more analyses to compare them.")
+            return
+        self.cmp = compare_analyses(self.analyses)
         if self.cmp["flags"]:
             text = ("<b style='color:#c0392b'>Not like for like:</b><ul>%s</ul>"
                     % "".join("<li>%s</li>" % f for f in self.cmp["flags"]))
         else:
             text = ("<b style='color:#2e8b57'>Like for like:</b> same representation, L_ref convention, "
                     "units and thresholds.")
-        self.flags_label = QtWidgets.QLabel(text)
-        self.flags_label.setWordWrap(True)
-        lay.addWidget(self.flags_label)
+        self.flags_label.setText(text)
         self.table = self._table()
-        lay.addWidget(self.table)
-        self.chart = QtWidgets.QLabel()
+        self.layout.insertWidget(self.layout.indexOf(self.chart), self.table)
         try:
             self.png = chart_png(self.cmp)
         except ImportError as exc:  # matplotlib is optional: the table still compares
-            self.png = None
             self.chart.setText("bar chart needs matplotlib (%s)" % exc)
         else:
             img = QtGui.QImage.fromData(self.png, "PNG")
             self.chart.setPixmap(QtGui.QPixmap.fromImage(img).scaledToWidth(460, QtCore.Qt.SmoothTransformation))
-        lay.addWidget(self.chart)
 
     def _table(self):
         cmp = self.cmp
@@ -106,6 +147,7 @@ class ComparePanel(CloseOnlyPanel):
         return path
 
 
-def show_compare_panel(analyses):
+def show_compare_panel(analyses, candidates=None):
+    """Open the compare panel on analyses; candidates: the analyses it lists (default: those)."""
     from .on_screen import show_task_panel
-    return show_task_panel(ComparePanel(analyses))
+    return show_task_panel(ComparePanel(analyses, candidates))

@@ -169,17 +169,36 @@ def make_legend_widget(legend, parent=None):
     return LegendWidget(legend, parent)
 
 
-def legend_to(shown):
-    """Show the colour bar of the given analyses only (bars of several would overlap)."""
+def legend_to(shown, doc=None):
+    """Show the colour bar of the given analyses only (bars of several would overlap).
+    doc: their document (default: theirs, else the active one)."""
     import FreeCAD
     from ..app import analysis as app_analysis
     names = {a.Name for a in shown}
-    for a in app_analysis.analyses_in(FreeCAD.ActiveDocument):
+    doc = doc or (shown[0].Document if shown else FreeCAD.ActiveDocument)
+    if doc is None:
+        return
+    for a in app_analysis.analyses_in(doc):
         vobj = getattr(a, "ViewObject", None)
         if vobj is not None and "ShowLegend" in vobj.PropertiesList:
             want = a.Name in names
             if vobj.ShowLegend != want:
                 vobj.ShowLegend = want
+
+
+def legend_after_removal(removed):
+    """When the analysis carrying the colour bar goes, the bar moves to the newest analysis
+    still shown in its document (its map stays on screen and needs its scale)."""
+    from ..app import analysis as app_analysis
+    vobj = getattr(removed, "ViewObject", None)
+    if vobj is None or not getattr(vobj, "ShowLegend", False):
+        return None
+    shown = [a for a in app_analysis.analyses_in(removed.Document) if a.Name != removed.Name
+             and getattr(a, "ViewObject", None) is not None and a.ViewObject.Visibility]
+    if not shown:
+        return None
+    legend_to(shown[-1:], removed.Document)
+    return shown[-1]
 
 
 def overlay_box_pixels(legend, width, height, font_px=13.0):

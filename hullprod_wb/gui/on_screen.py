@@ -7,7 +7,8 @@ over the 3D view). seen_by_a_person asks the window system's own hit test
 """
 from .qt import QtCore, QtWidgets
 
-__all__ = ["seen_by_a_person", "bring_into_view", "show_task_panel", "describe", "visible_rect"]
+__all__ = ["seen_by_a_person", "bring_into_view", "show_task_panel", "describe", "visible_rect",
+           "scroll_sideways_when_narrow"]
 
 
 def describe(widget):
@@ -122,4 +123,16 @@ def show_task_panel(panel):
     FreeCADGui.Control.showDialog(panel)
     for form in panel.form if isinstance(panel.form, (list, tuple)) else [panel.form]:
         bring_into_view(form)
+        scroll_sideways_when_narrow(form)
     return panel
+
+
+def scroll_sideways_when_narrow(widget):
+    """Let the scroll area holding widget (the task view) scroll sideways when the widget
+    needs more width than it shows: a narrow combo view otherwise cuts the right side off."""
+    w = widget.parentWidget()
+    while w is not None and not isinstance(w, QtWidgets.QScrollArea):
+        w = w.parentWidget()
+    if w is not None:
+        w.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAsNeeded)
+    return w

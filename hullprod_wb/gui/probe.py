@@ -28,6 +28,13 @@ def headers(analyses):
     return ["%s (%s)" % (c, per[c]) if c in per else c for c in COLUMNS]
 
 
+class NothingSelectable:
+    """Selection gate of the probe mode: no object or sub-element can be selected."""
+
+    def allow(self, doc, obj, sub):
+        return False
+
+
 class ProbePanel:
     """Task panel listing probed points; closing it ends the probe mode."""
 
@@ -54,6 +61,12 @@ class ProbePanel:
         lay.addWidget(self.last)
         self._type = coin.SoMouseButtonEvent.getClassTypeId()
         self._cb = view.addEventCallbackPivy(self._type, self.on_mouse)
+        # A probe click reads the surface; selecting the hull would paint it in the
+        # selection colour over its map, so nothing is selectable while the probe runs.
+        import FreeCADGui
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelectionGate(NothingSelectable())
+        self._gate = True
         # However the panel goes (Close, another task, document closed), the mode ends.
         self.form.destroyed.connect(lambda *args: self.stop())
 
@@ -64,10 +77,6 @@ class ProbePanel:
             x, y = ev.getPosition().getValue()
             if self.pick_at((int(x), int(y))) is not None:
                 event_callback.setHandled()
-                # a click here probes; FreeCAD's selection of the hull would tint its map
-                from .qt import QtCore
-                import FreeCADGui
-                QtCore.QTimer.singleShot(0, FreeCADGui.Selection.clearSelection)
 
     def _analysis_for(self, name):
         import FreeCAD
@@ -137,6 +146,10 @@ class ProbePanel:
             except Exception:  # the view was closed
                 pass
             self._cb = None
+        if getattr(self, "_gate", False):
+            import FreeCADGui
+            FreeCADGui.Selection.removeSelectionGate()
+            self._gate = False
         if ACTIVE is self:
             ACTIVE = None
 

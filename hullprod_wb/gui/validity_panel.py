@@ -13,6 +13,9 @@ from .wording import area_text
 from .legend import make_legend_widget
 from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
+#: Width of the reason column in average characters: a phrase per line, not a word.
+REASON_CHARS = 32
+
 FACE_COLUMNS = ("face", "status", "I_D", "share", "area", "surface", "I_D+", "I_D-", "flat", "single",
                 "elliptic", "saddle")
 
@@ -95,6 +98,12 @@ class ValidityPanel(CloseOnlyPanel):
         lab.setWordWrap(True)
         return lab
 
+    def _fit_rows(self):
+        """Rows as tall as their wrapped reason at the reason column's present width."""
+        t = self.signature_table
+        t.resizeRowsToContents()
+        t.setMinimumHeight(t.horizontalHeader().height() + sum(t.rowHeight(i) for i in range(t.rowCount())) + 6)
+
     def _signature_table(self):
         t = QtWidgets.QTableWidget(len(METRICS), 4)
         t.setHorizontalHeaderLabels(["metric", "value", "status", "meaning / reason"])
@@ -116,13 +125,16 @@ class ValidityPanel(CloseOnlyPanel):
             self.rows.append({"metric": m, "value": rec["value"], "status": status, "reason": reason,
                               "color": wording.status_color(status)})
         t.resizeColumnsToContents()
-        # the reason wraps inside the panel's width instead of scrolling sideways
+        # the reason wraps inside the panel's width, in a column wide enough for a phrase
         t.setWordWrap(True)
-        t.horizontalHeader().setSectionResizeMode(3, QtWidgets.QHeaderView.Stretch)
+        header = t.horizontalHeader()
+        header.setSectionResizeMode(3, QtWidgets.QHeaderView.Stretch)
         t.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
-        t.resizeRowsToContents()
-        t.setMinimumHeight(t.horizontalHeader().height() + sum(t.rowHeight(i) for i in range(t.rowCount())) + 6)
+        phrase = REASON_CHARS * t.fontMetrics().averageCharWidth()
+        t.setMinimumWidth(sum(t.columnWidth(j) for j in range(3)) + phrase + 2 * t.frameWidth() + 4)
         self.signature_table = t
+        header.sectionResized.connect(lambda *args: self._fit_rows())
+        self._fit_rows()
         return t
 
     def _areas(self):

@@ -226,8 +226,10 @@ class ViewProviderHullProdAnalysis:
         menu.addAction(act)
 
     def onDelete(self, vobj, subelements):
-        """Show the source again when its last analysis goes (Analyze may have hidden it)."""
+        """Show the source again when its last analysis goes (Analyze may have hidden it);
+        the colour bar moves to an analysis still shown."""
         obj = vobj.Object
+        legend_mod.legend_after_removal(obj)
         src = getattr(obj, "Source", None)
         if src is not None and getattr(src, "ViewObject", None) is not None:
             others = [a for a in app_analysis.analyses_in(obj.Document) if a.Name != obj.Name and a.Source == src]

@@ -1,4 +1,9 @@
 """Validity labels in words a naval architect reads at a glance, with their colours."""
+import re
+
+#: A label of the paper's LaTeX source (eq:refs, tab:..., \\ref{...}) or its shorthand
+#: ("c/a"): words for docstrings, never for what a person reads.
+PAPER_LABEL = re.compile(r"\b(eq|tab|fig|sec):[A-Za-z]|\\[A-Za-z]{2,}\{|\bc/a\b")
 
 #: status -> (one-line explanation, background colour '#rrggbb').
 STATUS_TEXT = {

@@ -209,7 +209,7 @@ def assess_mesh(mesh_or_path, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, input_i
     provenance = {
         "backend": "mesh",
         "curvature_method": CURVATURE_METHOD,
-        "vertex_area": "barycentric: A_i = sum of incident triangle areas / 3 (eq:vertex_area)",
+        "vertex_area": "barycentric: A_i = sum of incident triangle areas / 3",
         "valid_domain": "interior vertices (not on a boundary or non-manifold edge) with finite K and H",
         "mesh_counts": {"vertices": int(len(V)), "faces": int(len(F))},
         "preparation": prep,

@@ -57,7 +57,7 @@ def add_parser(subparsers):
                        help="write report.html into --out (default folder out/study_%s)" % name)
         p.add_argument("--quiet", action="store_true", help="no progress messages")
 
-    s = sub.add_parser("sameface", help="same-face BRep-to-mesh curvature recovery (eq:sameface_error)")
+    s = sub.add_parser("sameface", help="same-face BRep-to-mesh curvature recovery (relative L2 error of H and K)")
     s.add_argument("input", help="BRep file (.igs .iges .step .stp .brep)")
     common(s, "sameface")
     s.add_argument("--levels", default=",".join(map(str, SAMEFACE_LEVELS)), help="panels per direction (default 12,24,48)")
@@ -68,7 +68,7 @@ def add_parser(subparsers):
                    help="also assess the BRep to list each face's share of the integral of |K|")
     s.set_defaults(func=run_sameface)
 
-    r = sub.add_parser("refinement", help="mesh-resolution sensitivity of a mesh ladder (eq:class_l1)")
+    r = sub.add_parser("refinement", help="mesh-resolution sensitivity of a mesh ladder (class-fraction change d1)")
     r.add_argument("input", nargs="+", help="one BRep (tessellated into the ladder) or several meshes, coarse to fine")
     common(r, "refinement")
     r.add_argument("--linear", default=",".join(map(str, LINEAR_DEFLECTIONS)),
@@ -117,7 +117,7 @@ def _figure_line(label, rec):
         extra = " (larger faces passed over: %s)" % ", ".join(
             "%s: %s" % (f["face"], f["reason"]) for f in rec["passed_over"])
     share = "" if rec.get("abs_K_share") is None else ", %.1f %% of int |K| dA" % (100 * rec["abs_K_share"])
-    return "%s: face %s%s, %sx%s, 100 eps_H c/a %s, 100 eps_K c/a %s%s" % (
+    return "%s: face %s%s, %sx%s grid, error of H %s %%, of K %s %% (consistent / alternating mesh)%s" % (
         label, rec["face"], share, rec.get("panels"), rec.get("panels"), pair("eps_H"), pair("eps_K"), extra)
 
 
@@ -128,7 +128,7 @@ def sameface_summary(doc):
     lines = [_figure_line("headline (%s)" % hl.get("rule", "largest area"), hl),
              _figure_line("largest |K| share (%s)" % ((doc.get("largest_K_face") or {}).get("abs_K_share_source")
                                                       or "-"), doc.get("largest_K_face")),
-             "same-face curvature recovery, 100 eps (eq:sameface_error), two-ring mask with crease "
+             "same-face curvature recovery, relative L2 error in %, two-ring mask with crease "
              "rows as boundary; 'smooth' also without the two-ring of knot lines below C2",
              "%5s %6s %-11s %8s %8s %8s %8s %6s" % ("face", "panels", "pattern", "eps_H%", "eps_K%",
                                                    "smoothH%", "smoothK%", "kept")]

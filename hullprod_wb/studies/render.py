@@ -207,8 +207,8 @@ def render_sameface_errors(study):
                     ax.loglog(n, [100 * x for x in e], "-", color="#bbbbbb", lw=0.5, zorder=0)
     for ax, q in zip(axes, ("H", "K")):
         ax.set_xlabel("panels per direction", fontsize=8)
-        ax.set_ylabel("100 eps_%s [%%]" % q, fontsize=8)
-        ax.set_title("same-face %s error (eq:sameface_error)" % q, fontsize=9)
+        ax.set_ylabel("relative L2 error of %s [%%]" % q, fontsize=8)
+        ax.set_title("same-face %s error (relative L2)" % q, fontsize=9)
         ax.tick_params(labelsize=7)
         ax.grid(True, which="both", lw=0.3)
     handles, labels = axes[0].get_legend_handles_labels()

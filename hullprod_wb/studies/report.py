@@ -252,12 +252,12 @@ def sameface_section(s):
     parts = ["<h2>Same-face BRep-to-mesh curvature recovery</h2>",
              '<p class="note">Structured grids over an inset parameter rectangle (inset %s of each range), '
              "vertices at S(u, v), grid lines on the face's C0 knot lines (creases); relative L2 errors "
-             "of eq:sameface_error with the consistent P1 mass matrix on the common two-ring "
+             "of H and K with the consistent P1 mass matrix on the common two-ring "
              "strict-interior mask, crease rows counted as boundary; one global sign for H. "
              "'smooth': also without the vertices whose two-ring crosses a knot line below C2 "
              "(where the BRep H, K jump). The headline face is the face of largest area; the face "
              "with the largest share of the integral of |K| is named beside it.</p>" % esc(fmt(s["settings"]["inset"]))]
-    parts.append("<h3>Headline (100 eps at the finest level, consistent / alternating)</h3>")
+    parts.append("<h3>Headline (relative L2 error in % at the finest level, consistent / alternating mesh)</h3>")
     parts.append(table(["face", "number", "area share %", "|K| share %", "eps_H %", "eps_K %", "diagnosis"],
                        headline_rows(s), left=(0, 6)))
     summary = []
@@ -273,7 +273,7 @@ def sameface_section(s):
         summary.append([f["face"], f.get("surface_kind"), pct(c.get("eps_H")), pct(al.get("eps_H")),
                         pct(c.get("eps_K")), pct(al.get("eps_K")), pct(f.get("abs_K_share"), 1),
                         (nulls + ". " if nulls else "") + f["diagnosis"]["text"]])
-    parts.append("<h3>Finest level (100 eps, as paper Table tab:same_face_verification)</h3>")
+    parts.append("<h3>Finest level (relative L2 error in %, laid out as the paper's same-face verification table)</h3>")
     parts.append(table(["face", "surface", "H consistent %", "H alternating %", "K consistent %",
                         "K alternating %", "|K| share %", "diagnosis (null values: reason)"], summary, left=(1, 7)))
     for f in s["faces"]:
@@ -318,8 +318,8 @@ def refinement_section(s):
                     [pct(rc.get("I_D"), 2), pct(rc.get("I_D_plus"), 2), pct(rc.get("I_D_minus"), 2),
                      fmt(r.get("d1"), 4), badge(r["status"]["I_D"])])
     parts = ["<h2>Mesh-resolution sensitivity</h2>",
-             '<p class="note">%s; L<sub>ref</sub> = %s; changes relative to the finest level; d1 of '
-             "eq:class_l1.</p>" % (esc(s["settings"].get("ladder")), esc(fmt(s.get("lref"), 8))),
+             '<p class="note">%s; L<sub>ref</sub> = %s; changes relative to the finest level; d1 = the sum over '
+             "the four classes of the change of their area fractions.</p>" % (esc(s["settings"].get("ladder")), esc(fmt(s.get("lref"), 8))),
              table(["level", "linear defl./L_ref", "angular [rad]", "triangles", "I_D", "I_D+ / I_D-",
                     "flat", "single", "elliptic", "saddle", "dI_D %", "dI_D+ %", "dI_D- %", "d1", "I_D status"],
                    rows, left=(0,))]
@@ -339,7 +339,7 @@ def representation_section(s):
     d = s["delta_percent"]
     red = s["class_redistribution"]
     return ("<h2>Representation: native BRep against triangle mesh</h2>"
-            '<p class="note">Mesh: %s; L<sub>ref</sub> = %s. As paper Table tab:publicsignatures.</p>'
+            '<p class="note">Mesh: %s; L<sub>ref</sub> = %s. Laid out as the table of public-hull signatures in the paper.</p>'
             % (esc(", ".join("%s=%s" % (k, fmt(v)) for k, v in s["mesh"].items())), esc(fmt(s["lref"], 8)))
             + table(["representation", "I_D", "I_D+ / I_D-", "flat", "single", "elliptic", "saddle",
                      "valid area %", "I_D status"], rows, left=(0,))

@@ -397,7 +397,7 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
                         "mask": ("two-ring strict interior of the boundary%s with finite, regular H and K "
                                  "of both realizations" % (" and of the crease rows (C0 knot lines placed on "
                                                            "grid lines)" if align_creases else "")),
-                        "norm": "consistent P1 mass matrix on the physical triangles (eq:sameface_error)",
+                        "norm": "consistent P1 mass matrix on the physical triangles",
                         "H_sign": "one global sign of the recovered H by M-weighted correlation with the BRep H",
                         "faces_selected": None if faces is None else list(faces),
                         "diagnosis": diagnosis_settings()},

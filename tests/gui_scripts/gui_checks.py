@@ -567,8 +567,8 @@ def _():
     orig = compare_panel.show_compare_panel
     got = {}
 
-    def capture(objs):
-        got["panel"] = orig(objs)
+    def capture(*args):
+        got["panel"] = orig(*args)
         return got["panel"]
     compare_panel.show_compare_panel = capture
     try:
@@ -644,10 +644,13 @@ def _():
     source_shown = bool(src.ViewObject.Visibility)
     deleted = doc.getObject(extra_name) is None
     FreeCADGui.Selection.clearSelection()
-    FreeCADGui.runCommand("HullProd_Compare")  # nothing selected: a message, no crash
-    compare_err = [m[2] for m in dialogs.LOG if m[0] == "error"][-1]
+    FreeCADGui.runCommand("HullProd_Compare")  # nothing selected: every open analysis listed, no crash
+    from hullprod_wb.gui import compare_panel
+    panel = compare_panel.LAST_PANEL
+    compare_listed = len(panel.candidates) if panel is not None else 0
+    FreeCADGui.Control.closeDialog()
     return {"bad_created": len(bad), "errors": errors, "cancel_created": len(cancelled),
-            "objects_unchanged": len(doc.Objects) == count, "cancel_message": msg, "compare_error": compare_err,
+            "objects_unchanged": len(doc.Objects) == count, "cancel_message": msg, "compare_listed": compare_listed,
             "deleted": deleted, "source_shown_after_delete": source_shown, "other_analyses": len(others),
             "RunProgress": RunProgress.__name__, "running_on_screen": running_on_screen}
 
@@ -1036,5 +1039,268 @@ def _():
         FreeCAD.setActiveDocument(active)
     return out
 
+
+
+def analysed_mesh(docname, label, lref=1.0):
+    """A new document holding a half-Wigley mesh and its analysis (a fast run)."""
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.examples.analytic_meshes import half_wigley_mesh
+    doc = FreeCAD.newDocument(docname)
+    V, F = half_wigley_mesh(32, 8)
+    m = doc.addObject("Mesh::Feature", label)
+    m.Mesh = Mesh.Mesh(V[F].tolist())
+    doc.recompute()
+    return doc, make_analysis(m, lref=lref, label=label + "_analysis")
+
+
+def gl_viewport():
+    """The widget of the active 3D view that receives the mouse (Coin's GL viewport)."""
+    sub = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea).activeSubWindow().widget()
+    gl = [w for w in sub.findChildren(QtWidgets.QWidget) if "GL" in w.metaObject().className() and w.isVisible()]
+    return max(gl, key=lambda w: w.width() * w.height()) if gl else sub
+
+
+def click(widget, x, y):
+    """A left click of a person at widget pixel (x, y): move, press, release."""
+    pos = QtCore.QPointF(x, y)
+    glob = QtCore.QPointF(widget.mapToGlobal(QtCore.QPoint(int(x), int(y))))
+    for kind, buttons in ((QtCore.QEvent.MouseMove, QtCore.Qt.NoButton),
+                          (QtCore.QEvent.MouseButtonPress, QtCore.Qt.LeftButton),
+                          (QtCore.QEvent.MouseButtonRelease, QtCore.Qt.NoButton)):
+        button = QtCore.Qt.NoButton if kind == QtCore.QEvent.MouseMove else QtCore.Qt.LeftButton
+        ev = QtGui.QMouseEvent(kind, pos, glob, button, buttons, QtCore.Qt.NoModifier)
+        QtWidgets.QApplication.sendEvent(widget, ev)
+        process(60)
+
+
+@step("probe_click_selects_nothing")
+def _():
+    """A mouse click on the hull in probe mode probes it: the hull is not selected (its map
+    stays), and no floating-point warning reaches the Report view."""
+    import warnings
+    from hullprod_wb.gui import probe
+    doc, a = analysed_mesh("ProbeClick", "ClickHull")
+    FreeCADGui.ActiveDocument = FreeCADGui.getDocument(doc.Name)
+    hull_camera()
+    a.ViewObject.ColorMap = "Developability"
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    FreeCADGui.runCommand("HullProd_Probe")
+    process(100)
+    panel = probe.ACTIVE
+    vp = gl_viewport()
+    bb = a.Source.Mesh.BoundBox
+    centre = FreeCAD.Vector(bb.Center.x, bb.YMax, bb.Center.z)
+    x, y = view().getPointOnScreen(centre)
+    tried, hits = [], []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for px, py in ((x, vp.height() - y), (x, y)):
+            tried.append([px, py])
+            click(vp, px, py)
+            if panel.table.rowCount():
+                break
+    selected = [o.Name for o in FreeCADGui.Selection.getSelection(doc.Name)]
+    rows = panel.table.rowCount()
+    FreeCADGui.Control.closeDialog()
+    process(50)
+    selectable_after = True
+    FreeCADGui.Selection.addSelection(a)
+    selectable_after = [o.Name for o in FreeCADGui.Selection.getSelection(doc.Name)] == [a.Name]
+    FreeCADGui.Selection.clearSelection()
+    FreeCAD.closeDocument(doc.Name)
+    return {"rows": rows, "selected": selected, "tried": tried,
+            "warnings": ["%s:%s: %s" % (w.filename, w.lineno, w.message) for w in caught],
+            "selectable_after_close": selectable_after}
+
+
+@step("legend_follows_remaining_analysis")
+def _():
+    """Three analyses, the newest two deleted from the tree: the colour bar goes to the one
+    still coloured."""
+    doc, first = analysed_mesh("LegendAfterDelete", "Hull1")
+    src = first.Source
+    from hullprod_wb.app import make_analysis
+    more = [make_analysis(src, lref=1.0, label="Hull1_analysis_%d" % k) for k in (2, 3)]
+    from hullprod_wb.gui.legend import legend_to
+    for a in [first] + more:
+        a.ViewObject.Visibility = True
+    legend_to(more[-1:])
+    before = [o.Label for o in (first, *more) if o.ViewObject.ShowLegend]
+    for a in reversed(more):
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a)
+        FreeCADGui.runCommand("Std_Delete")
+        process(50)
+    left = [o for o in doc.Objects if o.Name == first.Name]
+    out = {"before": before, "left": [o.Label for o in left],
+           "visible": bool(first.ViewObject.Visibility), "legend": bool(first.ViewObject.ShowLegend),
+           "legend_nodes": first.ViewObject.Proxy.legend_switch.getNumChildren(),
+           "legend_switch": first.ViewObject.Proxy.legend_switch.whichChild.getValue()}
+    FreeCAD.closeDocument(doc.Name)
+    return out
+
+
+@step("compare_across_documents")
+def _():
+    """Two hulls opened each in its own document: Compare lists the analyses of both."""
+    from hullprod_wb.gui import compare_panel, dialogs
+    d1, a1 = analysed_mesh("CompareDocA", "HullA", lref=1.0)
+    d2, a2 = analysed_mesh("CompareDocB", "HullB", lref=1.1)
+    FreeCAD.setActiveDocument(d2.Name)
+    FreeCADGui.ActiveDocument = FreeCADGui.getDocument(d2.Name)
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a2)  # one analysis selected, in the active document
+    n_err = len([m for m in dialogs.LOG if m[0] == "error"])
+    FreeCADGui.runCommand("HullProd_Compare")
+    process(100)
+    p = compare_panel.LAST_PANEL
+    errors = [m[2] for m in dialogs.LOG if m[0] == "error"][n_err:]
+    listed = [p.choice.item(i).text() for i in range(p.choice.count())] if p else []
+    every_open = ["%s: %s" % (d.Label, o.Label) for d in FreeCAD.listDocuments().values() for o in d.Objects
+                  if o.TypeId == a1.TypeId and hasattr(o, "I_D")]
+    compared = p.cmp["labels"] if p and p.cmp else []
+    columns = p.table.columnCount() if p and p.table is not None else 0
+    # one left ticked: a note and no table; all ticked again
+    for i in range(1, p.choice.count()):
+        p.choice.item(i).setCheckState(QtCore.Qt.Unchecked)
+    process(20)
+    note = p.flags_label.text()
+    for i in range(1, p.choice.count()):
+        p.choice.item(i).setCheckState(QtCore.Qt.Checked)
+    process(20)
+    retabled = p.table.columnCount() if p.table is not None else 0
+    window_shot("compare_documents")
+    documents = [d1.Label, d2.Label]
+    FreeCADGui.Control.closeDialog()
+    for d in (d1, d2):
+        FreeCAD.closeDocument(d.Name)
+    return {"errors": errors, "listed": listed, "compared": compared, "documents": documents, "every_open": every_open, "columns": columns,
+            "flags": p.cmp["flags"] if p.cmp else [], "note_one_ticked": note, "retabled": retabled}
+
+
+def shown_texts(root):
+    """Every text a person can read in a widget tree: labels, buttons, titles, tool tips,
+    table and tree cells and headers, list rows, combo box entries."""
+    out = []
+    for w in [root] + root.findChildren(QtWidgets.QWidget):
+        out += [w.toolTip()]
+        for attr in ("text", "title", "placeholderText"):
+            f = getattr(w, attr, None)
+            if callable(f) and not isinstance(w, QtWidgets.QAbstractItemView):
+                try:
+                    v = f()
+                except TypeError:
+                    continue
+                if isinstance(v, str):
+                    out.append(v)
+        if isinstance(w, QtWidgets.QComboBox):
+            out += [w.itemText(i) for i in range(w.count())]
+        if isinstance(w, QtWidgets.QTableWidget):
+            out += [w.item(i, j).text() for i in range(w.rowCount()) for j in range(w.columnCount()) if w.item(i, j)]
+            out += [w.item(i, j).toolTip() for i in range(w.rowCount()) for j in range(w.columnCount()) if w.item(i, j)]
+            out += [w.horizontalHeaderItem(j).text() for j in range(w.columnCount()) if w.horizontalHeaderItem(j)]
+            out += [w.verticalHeaderItem(i).text() for i in range(w.rowCount()) if w.verticalHeaderItem(i)]
+        if isinstance(w, QtWidgets.QTreeWidget):
+            it = QtWidgets.QTreeWidgetItemIterator(w)
+            while it.value():
+                out += [it.value().text(c) for c in range(w.columnCount())]
+                it += 1
+        if isinstance(w, QtWidgets.QListWidget):
+            out += [w.item(i).text() for i in range(w.count())]
+    return [t for t in out if t]
+
+
+def clipped_widgets(panel):
+    """Shown widgets of panel whose right edge lies beyond the visible width of the scroll
+    area holding the panel (the task view), when that area shows no horizontal scroll bar."""
+    area, w = None, panel.parentWidget()
+    while w is not None and area is None:
+        area = w if isinstance(w, QtWidgets.QScrollArea) else None
+        w = w.parentWidget()
+    if area is None or area.horizontalScrollBar().isVisible():
+        return []
+    vp = area.viewport()
+    right = vp.mapToGlobal(QtCore.QPoint(vp.width(), 0)).x()
+    return ["%s(%s) %d > %d" % (type(c).__name__, c.objectName() or getattr(c, "text", lambda: "")()[:30],
+                                c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x(), right)
+            for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible()
+            and c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x() > right + 1]
+
+
+@step("panels_fit_and_speak_plainly")
+def _():
+    """The Analyze, validity, probe and compare panels at 1280x720 and 1600x1000 with the
+    combo view at FreeCAD's default width: no widget is cut off on the right without a
+    scroll bar, the validity table's reason column is wide enough to read, and no text
+    shown (nor any property description of the analysis) carries a label of the paper."""
+    from hullprod_wb.gui import analyze_panel, validity_panel, probe, compare_panel
+    from hullprod_wb.gui.wording import PAPER_LABEL
+    from hullprod_wb.app import make_analysis
+    doc, a = analysed_mesh("PanelsFit", "FitHull")
+    b = make_analysis(a.Source, lref=1.2, label="FitHull_analysis_2")
+    FreeCADGui.ActiveDocument = FreeCADGui.getDocument(doc.Name)
+    mw = FreeCADGui.getMainWindow()
+    combo = [d for d in mw.findChildren(QtWidgets.QDockWidget) if d.objectName() in ("Combo View", "ComboView")]
+    out, texts = {}, []
+    for w, h in ((1280, 720), (1600, 1000)):
+        mw.showNormal()
+        mw.resize(w, h)
+        if combo:  # FreeCAD's default: the dock at its own size hint
+            mw.resizeDocks(combo, [combo[0].sizeHint().width()], QtCore.Qt.Horizontal)
+        process(200)
+        rec = {"combo_width": combo[0].width() if combo else None}
+        a.Source.ViewObject.Visibility = True  # a hidden object cannot be selected
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a.Source)
+        before = analyze_panel.LAST_PANEL
+        FreeCADGui.runCommand("HullProd_Analyze")
+        process(200)
+        p = analyze_panel.LAST_PANEL
+        assert p is not before, "Analyze opened no panel"
+        p.advanced.setChecked(True)
+        process(100)
+        rec["analyze"] = clipped_widgets(p.form)
+        texts += shown_texts(p.form)
+        window_shot("panel_fit_analyze_%dx%d" % (w, h), p.form)
+        FreeCADGui.Control.closeDialog()
+        vpanel = validity_panel.show_validity_panel(a)
+        process(200)
+        rec["validity"] = clipped_widgets(vpanel.form)
+        t = vpanel.signature_table
+        rec["reason_chars"] = t.columnWidth(3) // max(1, t.fontMetrics().averageCharWidth())
+        vpanel.detail_button.setChecked(True)
+        process(50)
+        texts += shown_texts(vpanel.form)
+        window_shot("panel_fit_validity_%dx%d" % (w, h), vpanel.form)
+        FreeCADGui.Control.closeDialog()
+        FreeCADGui.Selection.clearSelection()
+        FreeCADGui.Selection.addSelection(a)
+        FreeCADGui.runCommand("HullProd_Probe")
+        process(100)
+        pp = probe.ACTIVE
+        from hullprod_wb.app import analysis_fields
+        f = analysis_fields(a)
+        pp.probe(a, f.points[f.triangles[len(f.triangles) // 2]].mean(axis=0))
+        process(50)
+        rec["probe"] = clipped_widgets(pp.form)
+        texts += shown_texts(pp.form)
+        FreeCADGui.Control.closeDialog()
+        cp = compare_panel.show_compare_panel([a, b])
+        process(100)
+        rec["compare"] = clipped_widgets(cp.form)
+        texts += shown_texts(cp.form)
+        FreeCADGui.Control.closeDialog()
+        out["%dx%d" % (w, h)] = rec
+    texts += [a.getDocumentationOfProperty(n) for n in a.PropertiesList]
+    texts += [a.ViewObject.getDocumentationOfProperty(n) for n in a.ViewObject.PropertiesList]
+    out["labels_seen"] = sorted({t[:120] for t in texts if PAPER_LABEL.search(t)})
+    out["texts_checked"] = len(texts)
+    mw.resize(1500, 950)
+    if combo:
+        mw.resizeDocks(combo, [560], QtCore.Qt.Horizontal)
+    process(100)
+    FreeCAD.closeDocument(doc.Name)
+    return out
 
 finish()
