@@ -498,3 +498,38 @@ def test_scale_presets_linear_and_percentiles():
 def test_preferences_page(gui):
     rec = step(gui, "preferences")
     assert rec["stored"] == 2e-4 and rec["reloaded"] == "0.0001"
+
+
+def study_step(gui):
+    rec = step(gui, "study_in_process")
+    if rec.get("skipped"):
+        pytest.skip(rec["skipped"])
+    assert rec["error"] is None, rec["error"]
+    return rec
+
+
+def test_study_does_not_block_the_event_loop(gui):
+    """A threshold study runs in the assessment process: the command returns at once and
+    the event loop never waits more than about a second while the study runs (KCS, 125
+    faces, several seconds of work); its report is beside the saved document, titled after
+    the hull, and Cancel ends a running study within a second, with no report."""
+    rec = study_step(gui)
+    assert rec["study_seconds"] > 2.0 and rec["progress_events"] >= 3, rec
+    assert rec["command_returned_after"] < 1.0 and rec["longest_event_loop_gap"] < 1.0, rec
+    assert rec["report"] == rec["expected_report"] and os.path.isfile(rec["report"])
+    assert rec["report_title"] == "HullProd thresholds study: kcsstudy"
+    assert rec["cancel_pressed_while_running"] and rec["cancel_seconds"] < 1.0, rec
+    assert rec["cancelled_state"] == "cancelled" and rec["cancelled_report"] is None
+    assert any("Cancelled" in m[2] for m in rec["cancel_messages"]), rec["cancel_messages"]
+
+
+def test_threshold_study_row_equals_analyze(gui):
+    """The study assesses what Analyze assessed (same source, same L_ref, same settings):
+    its h_f = k_f = 1e-4 row has Analyze's I_D, I_D+, I_D- to 1e-9 and the same statuses."""
+    rec = study_step(gui)
+    assert rec["study_lref"] == rec["lref"]
+    row = rec["rows"]["0.0001"]
+    for m in ("I_D", "I_D_plus", "I_D_minus"):
+        assert row[m] == pytest.approx(rec["analysis"][m], rel=1e-9), m
+    assert row["status"] == rec["analysis_status"]
+    assert set(row["status"].values()) <= STATUSES
