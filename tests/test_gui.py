@@ -223,7 +223,8 @@ def test_long_run_keeps_the_gui_responsive_and_cancels(gui, shots):
     assert_panel_in_picture(gui, shots, "analyze_running")
 
 
-@pytest.mark.parametrize("fname", ["dtmb5415_half_overture.igs", "kcs_full_closed_ohp.iges"])
+@pytest.mark.parametrize("fname", ["dtmb5415_half_overture.igs", "kcs_full_closed_ohp.iges",
+                                   "fcship_half_wavebem.iges"])
 def test_gui_time_against_command_line(gui, fname):
     """GUI time of Analyze (OK until the analysis is shown) against `./hullprod analyze`,
     run alternately in the GUI session, both printed (a measurement, not a timed test: the
@@ -533,3 +534,15 @@ def test_threshold_study_row_equals_analyze(gui):
         assert row[m] == pytest.approx(rec["analysis"][m], rel=1e-9), m
     assert row["status"] == rec["analysis_status"]
     assert set(row["status"].values()) <= STATUSES
+
+
+@pytest.mark.parametrize("fname", ["kcs_full_closed_ohp.iges", "fcship_half_wavebem.iges"])
+def test_gui_analyze_within_1_15_of_the_command_line(gui, fname):
+    """GUI Analyze (OK until the analysis is shown) takes at most 1.15 times the command
+    line's time on hulls of 125 and 449 faces (medians of runs alternating with it)."""
+    rec = step(gui, "gui_vs_cli")[fname]
+    if "skipped" in rec:
+        pytest.skip(rec["skipped"])
+    assert not rec["errors"] and not rec["cli_error"], (rec["errors"], rec["cli_error"])
+    ratio = float(np.median(rec["seconds"])) / float(np.median(rec["cli_seconds"]))
+    assert ratio <= 1.15, (ratio, rec["seconds"], rec["cli_seconds"])

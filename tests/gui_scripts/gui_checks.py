@@ -786,7 +786,8 @@ def _():
     wait_for(lambda: False, 3)
     own_after, idle_wall = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter() - t
     idle = (own_after.ru_utime - own.ru_utime + own_after.ru_stime - own.ru_stime) / idle_wall
-    for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1)):
+    for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 2),
+                        ("fcship_half_wavebem.iges", 3)):
         src = open_hull(fname, fname.split("_")[0])
         if src is None:
             out[fname] = {"skipped": "public hulls not present"}
