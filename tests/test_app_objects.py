@@ -499,24 +499,30 @@ def test_assessment_process_gives_the_in_process_signature(doc):
 
 def test_assessment_process_cancel_ends_it_at_once(doc):
     """cancel() during a long run ends the process (and what it started) within a second."""
-    import time
     from hullprod_wb.app.assessment_process import AssessmentProcess
     proc = AssessmentProcess(wigley_feature(doc))
     try:
         proc.run({"order": 8, "rtol": 1e-12, "max_depth": 14})
-        t = time.monotonic()
-        while proc.last_progress is None and time.monotonic() - t < 60:
-            proc.poll(0.05)
-        assert proc.state == "running", proc.error
-        t = time.monotonic()
-        proc.cancel()
-        assert proc.proc.poll() is not None and time.monotonic() - t < 1.0
-        assert proc.state == "cancelled"
-        while living_in_group(proc.proc.pid) and time.monotonic() - t < 1.0:  # SIGKILL takes effect
-            time.sleep(0.01)
-        assert living_in_group(proc.proc.pid) == []  # nothing it started runs on, within a second
+        cancel_once_running(proc)
     finally:
         proc.close()
+
+
+def cancel_once_running(proc):
+    """Cancel proc after its first progress; it and what it started must be gone within a
+    second."""
+    import time
+    t = time.monotonic()
+    while proc.last_progress is None and time.monotonic() - t < 60:
+        proc.poll(0.05)
+    assert proc.state == "running", proc.error
+    t = time.monotonic()
+    proc.cancel()
+    assert proc.proc.poll() is not None and time.monotonic() - t < 1.0
+    assert proc.state == "cancelled"
+    while living_in_group(proc.proc.pid) and time.monotonic() - t < 1.0:  # SIGKILL takes effect
+        time.sleep(0.01)
+    assert living_in_group(proc.proc.pid) == []  # nothing it started runs on, within a second
 
 
 def living_in_group(pgid):
@@ -594,7 +600,6 @@ def test_threshold_study_process_repeats_the_analysis(doc):
 
 def test_study_process_cancel_ends_it_at_once(doc):
     """Cancelling a study ends its process and what it started within a second."""
-    import time
     from hullprod_wb.app import make_analysis
     from hullprod_wb.app.assessment_process import AssessmentProcess
     from hullprod_wb.app.study_run import study_settings
@@ -604,16 +609,7 @@ def test_study_process_cancel_ends_it_at_once(doc):
     proc = AssessmentProcess(source, faces, propose=False)
     try:
         proc.run_study("thresholds", options)
-        t = time.monotonic()
-        while proc.last_progress is None and time.monotonic() - t < 60:
-            proc.poll(0.05)
-        assert proc.state == "running", proc.error
-        t = time.monotonic()
-        proc.cancel()
-        assert proc.state == "cancelled" and time.monotonic() - t < 1.0
-        while living_in_group(proc.proc.pid) and time.monotonic() - t < 1.0:
-            time.sleep(0.01)
-        assert living_in_group(proc.proc.pid) == []
+        cancel_once_running(proc)
     finally:
         proc.close()
 
