@@ -61,7 +61,7 @@ UNTRACKED_DIRS = {".git", "__pycache__", ".pytest_cache"}
 def working_tree_files():
     """The working tree's files that a commit of it would hold: git's tracked and untracked,
     not ignored files; where git is missing (the chroots), every file but caches and .git."""
-    if shutil.which("git") and os.path.isdir(os.path.join(ROOT, ".git")):
+    if shutil.which("git") and os.path.exists(os.path.join(ROOT, ".git")):  # a folder, or a worktree's file
         p = subprocess.run(["git", "-C", ROOT, "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
                            capture_output=True)
         if p.returncode == 0:  # not, say, where git refuses a checkout another user owns

@@ -309,7 +309,7 @@ def test_verification_menu_runs_a_study_and_writes_the_report(gui):
     rec = step(gui, "verification_menu")
     assert len(rec["commands"]) == 4
     assert not [m for m in rec["messages"] if m[0] == "error"], rec["messages"]
-    assert rec["report"].endswith("report.html") and rec["html_bytes"] > 1000
+    assert rec["report"].endswith("HalfWigley_thresholds_study.html") and rec["html_bytes"] > 1000
     assert rec["has_threshold_table"]
 
 
