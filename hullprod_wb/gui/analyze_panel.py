@@ -349,7 +349,7 @@ class AnalyzePanel:
                     proc = self.processes[i] = AssessmentProcess(obj, chosen)
             self.running = i
             self.bar.setValue(0)
-            self.message.setText("%s: starting" % obj.Label)
+            self.message.setText("%s: running; Cancel (or Esc) stops it." % obj.Label)
             proc.run(self._options(self.kw, obj))
             return
         self._all_done()
