@@ -499,24 +499,30 @@ def test_assessment_process_gives_the_in_process_signature(doc):
 
 def test_assessment_process_cancel_ends_it_at_once(doc):
     """cancel() during a long run ends the process (and what it started) within a second."""
-    import time
     from hullprod_wb.app.assessment_process import AssessmentProcess
     proc = AssessmentProcess(wigley_feature(doc))
     try:
         proc.run({"order": 8, "rtol": 1e-12, "max_depth": 14})
-        t = time.monotonic()
-        while proc.last_progress is None and time.monotonic() - t < 60:
-            proc.poll(0.05)
-        assert proc.state == "running", proc.error
-        t = time.monotonic()
-        proc.cancel()
-        assert proc.proc.poll() is not None and time.monotonic() - t < 1.0
-        assert proc.state == "cancelled"
-        while living_in_group(proc.proc.pid) and time.monotonic() - t < 1.0:  # SIGKILL takes effect
-            time.sleep(0.01)
-        assert living_in_group(proc.proc.pid) == []  # nothing it started runs on, within a second
+        cancel_once_running(proc)
     finally:
         proc.close()
+
+
+def cancel_once_running(proc):
+    """Cancel proc after its first progress; it and what it started must be gone within a
+    second."""
+    import time
+    t = time.monotonic()
+    while proc.last_progress is None and time.monotonic() - t < 60:
+        proc.poll(0.05)
+    assert proc.state == "running", proc.error
+    t = time.monotonic()
+    proc.cancel()
+    assert proc.proc.poll() is not None and time.monotonic() - t < 1.0
+    assert proc.state == "cancelled"
+    while living_in_group(proc.proc.pid) and time.monotonic() - t < 1.0:  # SIGKILL takes effect
+        time.sleep(0.01)
+    assert living_in_group(proc.proc.pid) == []  # nothing it started runs on, within a second
 
 
 def living_in_group(pgid):
@@ -565,3 +571,66 @@ def test_locate_triangle_passes_over_degenerate_triangles_without_warning():
         idx, bary, dist = locate_triangle(P, T, (0.25, 0.25, 0.1))
     assert idx == 2
     assert np.allclose(bary, [0.5, 0.25, 0.25]) and abs(dist - 0.1) < 1e-12
+
+
+def finish_study(proc, seconds=300):
+    """Poll a study's process until it ends; its progress events."""
+    import time
+    t, events = time.monotonic(), []
+    while not proc.finished and time.monotonic() - t < seconds:
+        events += [ev for ev in proc.poll(0.1) if ev.get("event") == "progress"]
+    return events
+
+
+def test_threshold_study_process_repeats_the_analysis(doc):
+    """A threshold study of an analysis, run in the assessment process on what Analyze
+    sent, with the analysis's L_ref and quadrature settings: the row at the analysis's
+    h_f = k_f has the analysis's I_D to 1e-9 and its statuses; the study names the object,
+    and its progress moves through every tolerance."""
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.assessment_process import AssessmentProcess
+    from hullprod_wb.app.study_run import study_settings
+    src = wigley_feature(doc)
+    here = make_analysis(src, order=4, rtol=1e-3, max_depth=3, h_f=2e-4, k_f=2e-4)
+    source, faces, options = study_settings(here)
+    assert source is src and options["lref"] == here.LrefUsed and options["order"] == 4
+    proc = AssessmentProcess(src, faces, propose=False)
+    try:
+        proc.run_study("thresholds", options)
+        events = finish_study(proc)
+        study = proc.study_result()
+    finally:
+        proc.close()
+    rows = {r["h_f"]: r for r in study["rows"]}
+    assert sorted(rows) == [1e-5, 1e-4, 2e-4, 1e-3]
+    row = rows[2e-4]
+    for m, key in (("I_D", "I_D"), ("I_D_plus", "I_D_plus"), ("I_D_minus", "I_D_minus")):
+        assert row[key] == pytest.approx(getattr(here, m), rel=1e-9, abs=1e-12), m
+        assert row["status"][key] == getattr(here, m + "_Status"), m
+    assert row["a_C"]["flat"] == pytest.approx(here.a_flat, rel=1e-9, abs=1e-12)
+    assert study["lref"] == here.LrefUsed and study["input"]["name"] == src.Label
+    assert study["input"]["path"] is None
+    fractions = [ev["fraction"] for ev in events]
+    assert fractions == sorted(fractions) and len({round(f, 1) for f in fractions}) >= 4, fractions
+
+
+def test_study_process_cancel_ends_it_at_once(doc):
+    """Cancelling a study ends its process and what it started within a second."""
+    from hullprod_wb.app import make_analysis
+    from hullprod_wb.app.assessment_process import AssessmentProcess
+    from hullprod_wb.app.study_run import study_settings
+    here = make_analysis(wigley_feature(doc), order=4, rtol=1e-3, max_depth=3)
+    source, faces, options = study_settings(here)
+    options.update(order=8, rtol=1e-12, max_depth=14)
+    proc = AssessmentProcess(source, faces, propose=False)
+    try:
+        proc.run_study("thresholds", options)
+        cancel_once_running(proc)
+    finally:
+        proc.close()
+
+
+def test_study_report_default_beside_the_document_named_after_the_object():
+    from hullprod_wb.app.study_run import default_report_path
+    assert default_report_path("/d/ship.FCStd", "KCS hull/v2", "thresholds") == "/d/KCS_hull_v2_thresholds_study.html"
+    assert default_report_path("", "Hull", "sameface", home="/h") == "/h/Hull_sameface_study.html"

@@ -61,3 +61,21 @@ def test_catamaran_trim_gap_within_vertex_tolerance_is_closed_exactly():
     assert r.integrals.represented_area == pytest.approx(r.provenance["occ_area"], rel=1e-4)
     assert {v.status.value for v in r.validity.values()} == {"VALID"}
     assert r.validity["a_flat"].evidence["repaired_domains"] == [6]
+
+
+def test_progress_moves_through_the_re_integrations():
+    """The bar moves through every phase: it never goes back, the first integration ends
+    below the re-integration rounds of the budget protocol, and those rounds (KCS: two
+    faces that carry the shape's error, about a third of the run) move the bar as their
+    faces finish, instead of holding one value until the end."""
+    from hullprod_wb import assess
+    events = []
+    assess(shared_hull("brep/kcs_full_closed_ohp.iges"), with_fields=False,
+           progress=lambda f, m="": events.append((float(f), m)))
+    fractions = [f for f, _ in events]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    start = next(k for k, (_, m) in enumerate(events) if m.startswith("refining"))
+    first_pass = fractions[:start]
+    during = sorted({f for f, _ in events[start:-1]})
+    assert max(first_pass) <= during[0] < 0.9, (max(first_pass), during)
+    assert len(during) >= 3 and during[-1] < 1.0, during

@@ -223,7 +223,8 @@ def test_long_run_keeps_the_gui_responsive_and_cancels(gui, shots):
     assert_panel_in_picture(gui, shots, "analyze_running")
 
 
-@pytest.mark.parametrize("fname", ["dtmb5415_half_overture.igs", "kcs_full_closed_ohp.iges"])
+@pytest.mark.parametrize("fname", ["dtmb5415_half_overture.igs", "kcs_full_closed_ohp.iges",
+                                   "fcship_half_wavebem.iges"])
 def test_gui_time_against_command_line(gui, fname):
     """GUI time of Analyze (OK until the analysis is shown) against `./hullprod analyze`,
     run alternately in the GUI session, both printed (a measurement, not a timed test: the
@@ -308,7 +309,7 @@ def test_verification_menu_runs_a_study_and_writes_the_report(gui):
     rec = step(gui, "verification_menu")
     assert len(rec["commands"]) == 4
     assert not [m for m in rec["messages"] if m[0] == "error"], rec["messages"]
-    assert rec["report"].endswith("report.html") and rec["html_bytes"] > 1000
+    assert rec["report"].endswith("HalfWigley_thresholds_study.html") and rec["html_bytes"] > 1000
     assert rec["has_threshold_table"]
 
 
@@ -584,3 +585,38 @@ def test_no_paper_label_in_what_the_gui_shows(gui):
     rec = step(gui, "panels_fit_and_speak_plainly")
     assert rec["texts_checked"] > 100
     assert rec["labels_seen"] == []
+
+
+def study_step(gui):
+    rec = step(gui, "study_in_process")
+    if rec.get("skipped"):
+        pytest.skip(rec["skipped"])
+    assert rec["error"] is None, rec["error"]
+    return rec
+
+
+def test_study_does_not_block_the_event_loop(gui):
+    """A threshold study runs in the assessment process: the command returns at once and
+    the event loop never waits more than about a second while the study runs (KCS, 125
+    faces, several seconds of work); its report is beside the saved document, titled after
+    the hull, and Cancel ends a running study within a second, with no report."""
+    rec = study_step(gui)
+    assert rec["study_seconds"] > 2.0 and rec["progress_events"] >= 3, rec
+    assert rec["command_returned_after"] < 1.0 and rec["longest_event_loop_gap"] < 1.0, rec
+    assert rec["report"] == rec["expected_report"] and os.path.isfile(rec["report"])
+    assert rec["report_title"] == "HullProd thresholds study: kcsstudy"
+    assert rec["cancel_pressed_while_running"] and rec["cancel_seconds"] < 1.0, rec
+    assert rec["cancelled_state"] == "cancelled" and rec["cancelled_report"] is None
+    assert any("Cancelled" in m[2] for m in rec["cancel_messages"]), rec["cancel_messages"]
+
+
+def test_threshold_study_row_equals_analyze(gui):
+    """The study assesses what Analyze assessed (same source, same L_ref, same settings):
+    its h_f = k_f = 1e-4 row has Analyze's I_D, I_D+, I_D- to 1e-9 and the same statuses."""
+    rec = study_step(gui)
+    assert rec["study_lref"] == rec["lref"]
+    row = rec["rows"]["0.0001"]
+    for m in ("I_D", "I_D_plus", "I_D_minus"):
+        assert row[m] == pytest.approx(rec["analysis"][m], rel=1e-9), m
+    assert row["status"] == rec["analysis_status"]
+    assert set(row["status"].values()) <= STATUSES

@@ -532,6 +532,24 @@ def test_threshold_study_on_mesh():
         assert sum(r["a_C"].values()) == pytest.approx(1.0, abs=1e-12)
 
 
+def test_threshold_table_shows_each_value_status():
+    """The report's and the command line's threshold tables carry each value's validity
+    status; the report's heading is the one asked for."""
+    from hullprod_wb.examples.analytic_meshes import torus_mesh
+    from hullprod_wb.studies import report_html, threshold_study
+    from hullprod_wb.studies.cli import study_summary
+    doc = threshold_study(torus_mesh(48), lref=8.0, tolerances=(1e-4,))
+    row = doc["rows"][0]
+    page = report_html(None, doc, title="HullProd thresholds study: Torus")
+    section = page.split("<h2>Threshold study</h2>", 1)[1]
+    statuses = [row["status"][q] for q in ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single", "a_elliptic",
+                                           "a_saddle")]
+    assert section.count('class="badge"') == 7
+    assert [b.split(">", 1)[1].split("<", 1)[0] for b in section.split('class="badge"')[1:]] == statuses
+    assert "<h1>HullProd thresholds study: Torus</h1>" in page
+    assert study_summary(doc).splitlines()[2].endswith(" ".join(statuses))
+
+
 def test_representation_wigley_brep_against_tessellation():
     from hullprod_wb.examples.builtin import WIGLEY_REFERENCE, half_wigley_shape
     from hullprod_wb.studies import representation_study

@@ -101,10 +101,12 @@ class AssessmentProcess:
     Construction starts the process and sends it the input (load). run(options) starts
     the assessment; poll() returns the events that arrived (dicts, app.worker), without
     blocking; cancel() ends the process at once; result() loads the Assessment after a
-    'done' event. The process preloads and proposes the automatic L_ref ('loaded').
+    'done' event. The process preloads and proposes the automatic L_ref ('loaded') unless
+    propose is False. run_study(kind, options) runs a verification study instead, and
+    study_result() loads its document.
     """
 
-    def __init__(self, source, faces=None):
+    def __init__(self, source, faces=None, propose=True):
         self.folder = tempfile.mkdtemp(prefix="hullprod_run_")
         self.label = source.Label
         self.kind, self.input_path, self.record = source_input(source, faces, self.folder)
@@ -121,7 +123,8 @@ class AssessmentProcess:
         self.load_error = None
         self.last_progress = None
         self.seconds = None
-        self._send({"op": "load", "kind": self.kind, "path": self.input_path, "faces": self.faces})
+        self._send({"op": "load", "kind": self.kind, "path": self.input_path, "faces": self.faces,
+                    "propose": propose})
 
     # -- talking -------------------------------------------------------------------------
     def _send(self, request):
@@ -136,6 +139,13 @@ class AssessmentProcess:
         self.state = "running"
         self.started_at = time.perf_counter()
         self._send({"op": "run", "options": options, "result": os.path.join(self.folder, "result.pickle")})
+
+    def run_study(self, kind, options):
+        """Start the study kind (app.study_run) with its options instead of an assessment."""
+        self.state = "running"
+        self.started_at = time.perf_counter()
+        self._send({"op": "study", "study": kind, "options": options,
+                    "result": os.path.join(self.folder, "result.pickle")})
 
     def poll(self, timeout=0.0):
         """Events that arrived within timeout seconds (list of dicts); updates state."""
@@ -222,6 +232,15 @@ class AssessmentProcess:
             a = pickle.load(fh)
         describe_object_input(a, self.record)
         return a
+
+    def study_result(self):
+        """The study document of a finished run_study, its input naming the FreeCAD object."""
+        if self.state != "done":
+            self.raise_error()
+        with open(os.path.join(self.folder, "result.pickle"), "rb") as fh:
+            doc = pickle.load(fh)
+        doc["input"] = dict(doc.get("input") or {}, path=None, **self.record)
+        return doc
 
     def wait(self, progress=None, interval=0.1):
         """Block until the run ends, calling progress(fraction, message) at least every

@@ -16,6 +16,10 @@ Requests:
       pickled Assessment written to path (with the run's seconds, its face processes
       "jobs", the process's threads when it started, and the assessment's timings), or {"event": "error", "kind": "input" | "internal",
       "message": ...}. The process then exits.
+  {"op": "study", "study": kind, "options": {...}, "result": path}
+      a verification study of the loaded input (app.study_run.run_study), with progress
+      events like a run; its JSON-safe document is pickled to path. The process then exits.
+  A load with "propose": false skips the L_ref proposal ("loaded" carries nulls).
 
 Nothing here imports FreeCADGui or Qt; FreeCAD itself is only loaded in a forked child
 (the L_ref proposal) or by the backend's own file reader, as in the command line.
@@ -111,6 +115,23 @@ def assess(kind, path, faces, options):
     return api.assess(path, faces=faces, **options)
 
 
+def run_study_request(loaded, req):
+    """A study of the loaded input (app.study_run), its document pickled to req["result"]."""
+    from .study_run import run_study
+    kind, path, faces = loaded
+    source = path
+    if kind == "mesh":
+        import numpy as np
+        data = np.load(path)
+        source = (data["vertices"], data["faces"])
+    t = time.perf_counter()
+    doc = run_study(req["study"], source, faces, req.get("options") or {}, Progress())
+    seconds = time.perf_counter() - t
+    with open(req["result"], "wb") as fh:
+        pickle.dump(doc, fh, pickle.HIGHEST_PROTOCOL)
+    emit("done", seconds=seconds)
+
+
 def read_request():
     line = sys.stdin.readline()
     if not line:
@@ -129,8 +150,13 @@ def main():
         try:
             if req["op"] == "load":
                 loaded = (req["kind"], req["path"], req.get("faces"))
-                lref, whole = load_proposal(*loaded)
+                lref, whole = load_proposal(*loaded) if req.get("propose", True) else (None, None)
                 emit("loaded", lref=lref, lref_whole=whole)
+            elif req["op"] == "study":
+                if loaded is None:
+                    raise InputError("nothing was loaded to study")
+                run_study_request(loaded, req)
+                return 0
             elif req["op"] == "run":
                 if loaded is None:
                     raise InputError("nothing was loaded to assess")
@@ -147,12 +173,12 @@ def main():
                 return 0
         except InputError as exc:
             emit("error", kind="input", message=" ".join(str(exc).split()))
-            if req.get("op") == "run":
+            if req.get("op") in ("run", "study"):
                 return 2
         except Exception as exc:
             emit("error", kind="internal", message="%s: %s" % (type(exc).__name__, exc),
                  traceback=traceback.format_exc())
-            if req.get("op") == "run":
+            if req.get("op") in ("run", "study"):
                 return 1
 
 

@@ -48,6 +48,12 @@ from .reading.record_reader import ReadInChild
 from .recorded_shape import RecordedShape
 
 
+#: Bar spans: the first integration of every face, then the budget protocol's rounds of
+#: re-integration (each round an equal part); display and records take the rest.
+INTEGRATION_SPAN = (0.05, 0.85)
+REFINEMENT_SPAN = (0.85, 0.95)
+
+
 @dataclass
 class BrepRun:
     """One BRep assessment on its way through its stages (assess_brep).
@@ -89,8 +95,11 @@ class BrepRun:
     face_budgets: list = None
     results: list = None
     provenance: dict = field(default_factory=dict)
-    done_weight: float = 0.0  # weight and number of the faces finished
+    done_weight: float = 0.0  # weight and number of the faces finished in the current pass
     done_count: int = 0
+    pass_span: tuple = None  # (lo, hi) of the bar for the current pass over faces
+    pass_weights: np.ndarray = None  # each face's share of the current pass (0: not in it)
+    pass_size: int = 0
 
     @staticmethod
     def read(source, faces, opts, progress, started, **choices):
@@ -166,6 +175,7 @@ class BrepRun:
         self.group_jobs = resolve_jobs(self.jobs, GROUPS) if self.in_groups else 1
         self.face_budgets = face_point_budgets(self.opts, self.weights)
         n = len(self.shape.faces)
+        self.start_pass(INTEGRATION_SPAN, self.weights, n)
         if self.n_jobs > 1:
             self.progress(0.05, "integrating %d faces in %d processes" % (n, self.n_jobs))
         self.results = map_faces(self.face_work, n, self.n_jobs, cost=self.cost, on_done=self.finished,
@@ -192,21 +202,32 @@ class BrepRun:
         except Exception as exc:  # a face OpenCascade or its data cannot give: left out, recorded
             return left_out_face(number, face, exc, self.setups[i], FaceSetup)
 
+    def start_pass(self, span, weights, size):
+        """A pass over faces filling the bar from span[0] to span[1], face i's share
+        weights[i] (summing to 1 over the pass's size faces)."""
+        self.pass_span, self.pass_weights, self.pass_size = span, weights, size
+        self.done_weight, self.done_count = 0.0, 0
+
+    def pass_fraction(self, done):
+        """The bar's fraction when the share done of the current pass is done."""
+        lo, hi = self.pass_span
+        return lo + (hi - lo) * min(1.0, done)
+
     def face_progress(self, i, number):
-        """progress(fraction, message) inside face i (its number): its weight's share of the
-        bar after the faces finished."""
+        """progress(fraction, message) inside face i (its number): its share of the pass
+        after the faces finished in it."""
         def progress(fraction, message=""):
-            self.progress(0.05 + 0.9 * (self.done_weight + self.weights[i] * fraction),
+            self.progress(self.pass_fraction(self.done_weight + self.pass_weights[i] * fraction),
                           "face %d: %s" % (number, message))
         return progress
 
     def finished(self, i, f):
         """Progress as face i finishes (f: its FaceAssessment or LeftOutFace)."""
-        self.done_weight += self.weights[i]
+        self.done_weight += self.pass_weights[i]
         self.done_count += 1
-        self.progress(0.05 + 0.9 * self.done_weight, "face %d %s (%d of %d faces)"
+        self.progress(self.pass_fraction(self.done_weight), "face %d %s (%d of %d faces)"
                       % (f.number, "done" if isinstance(f, FaceAssessment) else "NOT EVALUATED", self.done_count,
-                         len(self.shape.faces)))
+                         self.pass_size))
 
     def refine_where_the_error_is(self):
         """Stage 5: up to BUDGET_ROUNDS times (never with the paper's protocol), the faces that
@@ -214,7 +235,8 @@ class BrepRun:
         point budgets; a finer integration records where it and the earlier one disagree
         beyond their error estimates (budget.disagreement)."""
         results, budgets, faces = self.results, self.face_budgets, self.shape.faces
-        for _ in range(BUDGET_ROUNDS if not self.opts.paper else 0):
+        lo, hi = REFINEMENT_SPAN
+        for round_ in range(BUDGET_ROUNDS if not self.opts.paper else 0):
             ev = [i for i, r in enumerate(results) if not isinstance(r, LeftOutFace)]
             redo = [ev[k] for k in faces_to_refine([results[i] for i in ev], self.opts.rtol)]
             if not redo:
@@ -223,10 +245,16 @@ class BrepRun:
                                   self.opts.point_budget, sum(results[i].quad.n_points for i in ev))
             for i, b in zip(redo, grown):
                 budgets[i] = b
-            self.progress(0.95, "refining %d face(s) that carry the shape's error: %s"
+            share = np.zeros(len(faces))
+            cost = np.maximum(np.asarray([budgets[i] for i in redo], float), 0.0)
+            share[redo] = cost / cost.sum() if cost.sum() > 0 else 1.0 / len(redo)
+            self.start_pass((lo + (hi - lo) * round_ / BUDGET_ROUNDS, lo + (hi - lo) * (round_ + 1) / BUDGET_ROUNDS),
+                            share, len(redo))
+            self.progress(self.pass_fraction(0.0), "refining %d face(s) that carry the shape's error: %s"
                           % (len(redo), ", ".join("Face%d" % faces[i][0] for i in redo)))
             again = map_faces(lambda k: self.face_work(redo[k]), len(redo), min(self.n_jobs, len(redo)),
-                              cost=[budgets[i] for i in redo], labels=["Face%d" % faces[i][0] for i in redo])
+                              cost=[budgets[i] for i in redo], labels=["Face%d" % faces[i][0] for i in redo],
+                              on_done=lambda k, f: self.finished(redo[k], f))
             for i, f in zip(redo, again):
                 if not isinstance(f, LeftOutFace):
                     f.disagreement = disagreement(results[i].quad, f.quad)
@@ -437,6 +465,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
         with run.timed("quadrature_s"):
             run.integrate_faces()
             run.refine_where_the_error_is()
+            run.progress(REFINEMENT_SPAN[1], "records, display samples and validity")
             run.late_records()
         return run.assessment()
     finally:

@@ -11,6 +11,14 @@ def null_progress(fraction, message=""):
     """A progress callback that reports nothing."""
 
 
+def sub_progress(progress, lo, hi, prefix=""):
+    """progress(fraction, message) of one part of a run: fraction in [0, 1] mapped onto
+    [lo, hi] of progress, the message after prefix."""
+    def sub(fraction, message=""):
+        progress(lo + (hi - lo) * max(0.0, min(1.0, float(fraction))), prefix + str(message))
+    return sub
+
+
 class StderrProgress:
     """Prints at most every `interval` seconds: '[ 42%] message' on stderr."""
 

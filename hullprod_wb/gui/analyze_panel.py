@@ -280,19 +280,20 @@ class AnalyzePanel:
                     self._finish(i)
 
     def _show_progress(self, i, ev):
-        """The latest progress on the bar and the line below, repainted only when they
-        change and at most every UI_INTERVAL seconds (the GUI's process leaves the CPUs to
-        the assessment)."""
+        """The latest progress and its message on the bar, repainted only when they change
+        and at most every UI_INTERVAL seconds. The message is the bar's text, not the label
+        below: a new text in the word-wrapped label lays the whole task view out again,
+        which took more CPU than the rest of the GUI during a run."""
         now = time.monotonic()
         value = int(1000 * max(0.0, min(1.0, ev["fraction"])))
-        text = "%s: %s" % (self.sources[i][0].Label, ev["message"])
+        text = "%s: %s  %%p%%" % (self.sources[i][0].Label, ev["message"].replace("%", "%%"))
         if now - getattr(self, "_shown_at", 0.0) < UI_INTERVAL and value < 1000:
             return
         self._shown_at = now
         if value != self.bar.value():
             self.bar.setValue(value)
-        if text != self.message.text():
-            self.message.setText(text)
+        if text != self.bar.format():
+            self.bar.setFormat(text)
 
     def _show_protocol_rows(self, *_):
         """The settings of the chosen protocol only: point budget and depth limit under
@@ -370,7 +371,7 @@ class AnalyzePanel:
                     proc = self.processes[i] = AssessmentProcess(obj, chosen)
             self.running = i
             self.bar.setValue(0)
-            self.message.setText("%s: starting" % obj.Label)
+            self.message.setText("%s: running; Cancel (or Esc) stops it." % obj.Label)
             proc.run(self._options(self.kw, obj))
             return
         self._all_done()
@@ -379,6 +380,7 @@ class AnalyzePanel:
         obj, faces = self.sources[i]
         proc = self.processes[i]
         self.running = None
+        self.bar.setFormat("%p%")
         if proc.state == "cancelled":
             proc.close()
             self.processes[i] = None

@@ -51,6 +51,15 @@ def ask_directory(title, start=""):
     return path or None
 
 
+def ask_save_file(title, default, pattern="HTML (*.html)"):
+    """A file name to write chosen by the user, starting at default (the next queued
+    answer, else default, when not interactive); None when cancelled."""
+    if not INTERACTIVE:
+        return ANSWERS.pop(0) if ANSWERS else default
+    path, _ = QtWidgets.QFileDialog.getSaveFileName(_parent(), title, default, pattern)
+    return path or None
+
+
 def ask_yes_no(title, text, default=False):
     if not INTERACTIVE:
         return ANSWERS.pop(0) if ANSWERS else default

@@ -181,13 +181,16 @@ def study_summary(doc):
                                                                     _g(d["I_D_minus"], 4), _g(doc["d1"], 4)))
     elif kind == "thresholds":
         lines.append("threshold study (%s), L_ref = %s" % (doc.get("representation"), _g(doc["lref"], 8)))
-        lines.append("%10s %12s %8s %8s %8s %8s %8s" % ("h_f=k_f", "I_D", "flat", "single", "elliptic", "saddle",
-                                                       "double"))
+        lines.append("%10s %12s %8s %8s %8s %8s %8s  %s" % ("h_f=k_f", "I_D", "flat", "single", "elliptic", "saddle",
+                                                           "double", "status I_D I_D+ I_D- flat single elliptic saddle"))
         for r in doc["rows"]:
-            ac = r["a_C"]
-            lines.append("%10g %12s %8s %8s %8s %8s %8s" % (r["h_f"], _g(r["I_D"], 8), _g(ac["flat"], 4),
-                                                           _g(ac["single"], 4), _g(ac["elliptic"], 4),
-                                                           _g(ac["saddle"], 4), _g(r["double_curved"], 4)))
+            ac, st = r["a_C"], r.get("status") or {}
+            statuses = " ".join(st.get(q, "-") for q in ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single",
+                                                          "a_elliptic", "a_saddle"))
+            lines.append("%10g %12s %8s %8s %8s %8s %8s  %s" % (r["h_f"], _g(r["I_D"], 8), _g(ac["flat"], 4),
+                                                               _g(ac["single"], 4), _g(ac["elliptic"], 4),
+                                                               _g(ac["saddle"], 4), _g(r["double_curved"], 4),
+                                                               statuses))
         lines.append("max relative spread of I_D, I_D+, I_D-: %s" % _g(doc["max_I_D_spread"], 3))
     return "\n".join(lines)
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core.constants import CLASS_NAMES, DEFAULT_HF, DEFAULT_KF
 from ..core.errors import InputError
-from ..core.progress import null_progress
+from ..core.progress import null_progress, sub_progress
 from ..core.writers import json_safe
 
 #: Default linear deflections of the tessellation ladder, as fractions of L_ref.
@@ -138,10 +138,10 @@ def mesh_counts(assessment):
     return c.get("vertices"), c.get("faces")
 
 
-def assess_mesh_level(mesh, lref, h_f, k_f):
+def assess_mesh_level(mesh, lref, h_f, k_f, progress=None):
     """Mesh-backend assessment of one ladder level (path, (V, F) or mesh object)."""
     from ..api import assess
-    return assess(mesh, lref=lref, h_f=h_f, k_f=k_f, backend="mesh", with_fields=False)
+    return assess(mesh, lref=lref, h_f=h_f, k_f=k_f, backend="mesh", with_fields=False, progress=progress)
 
 
 def compare_levels(rows):
@@ -198,7 +198,8 @@ def refinement_study(source=None, meshes=None, lref=None, h_f=DEFAULT_HF, k_f=DE
     for k in order:
         lv = ladder[k]
         progress(k / len(ladder), "assessing %s" % lv["name"])
-        a = assess_mesh_level(lv["mesh"], lref_value, h_f, k_f)
+        a = assess_mesh_level(lv["mesh"], lref_value, h_f, k_f,
+                              sub_progress(progress, k / len(ladder), (k + 1) / len(ladder), lv["name"] + ": "))
         row = {"name": lv["name"]}
         for key in ("linear_deflection", "angular_deflection"):
             if key in lv:

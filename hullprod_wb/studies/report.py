@@ -348,12 +348,22 @@ def representation_section(s):
                      + [fmt(red[n], 4) for n in CLASS_NAMES]]))
 
 
+def with_status(value, status, digits):
+    """A table cell: the value and its validity badge (the status alone when no value)."""
+    cell = esc(fmt(value, digits))
+    return Raw(cell + (" " + badge(status).html if status else ""))
+
+
 def thresholds_section(s):
-    rows = [[fmt(r["h_f"]), fmt(r["I_D"], 8), fmt(r["I_D_plus"], 8), fmt(r["I_D_minus"], 8)]
-            + [fmt(r["a_C"].get(n), 5) for n in CLASS_NAMES] + [fmt(r["double_curved"], 5)] for r in s["rows"]]
+    def cells(r):
+        st = r.get("status") or {}
+        return ([fmt(r["h_f"])] + [with_status(r[q], st.get(q), 8) for q in ("I_D", "I_D_plus", "I_D_minus")]
+                + [with_status(r["a_C"].get(n), st.get("a_" + n), 5) for n in CLASS_NAMES]
+                + [fmt(r["double_curved"], 5)])
     ch = s.get("double_curved_change") or {}
     return ("<h2>Threshold study</h2>"
-            + table(["h_f = k_f", "I_D", "I_D+", "I_D-", "flat", "single", "elliptic", "saddle", "double-curved"], rows)
+            + table(["h_f = k_f", "I_D", "I_D+", "I_D-", "flat", "single", "elliptic", "saddle", "double-curved"],
+                    [cells(r) for r in s["rows"]])
             + "<p>Largest relative spread of I_D, I_D+, I_D- over the tolerances: %s (threshold independent by "
               "definition). Double-curved fraction from h_f = %s to %s: change %s (absolute), %s %% (relative).</p>"
             % (esc(fmt(s.get("max_I_D_spread"), 3)), esc(fmt(ch.get("from"))), esc(fmt(ch.get("to"))),
@@ -403,17 +413,18 @@ def report_html(assessment=None, studies=None, title=None):
             "</head><body>%s</body></html>\n" % (esc(title), CSS, "\n".join(body)))
 
 
-def write_report(assessment, path, studies=None):
+def write_report(assessment, path, studies=None, title=None):
     """Write the HTML report of an assessment (may be None) and optional studies to path.
 
     path: a file name, or an existing folder (then path/report.html). studies: a study dict
-    or a list of them (as returned by the study functions). Returns the file path.
+    or a list of them (as returned by the study functions); title: the page's heading
+    (default: after the input's file or object name). Returns the file path.
     """
     if os.path.isdir(path):
         path = os.path.join(path, "report.html")
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
-    text = report_html(assessment, studies)
+    text = report_html(assessment, studies, title)
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(text)
     return path

@@ -12,7 +12,7 @@ a_C(mesh) - a_C(BRep) (the class redistribution) and d1 (eq:class_l1). These are
 representation differences, not curvature-estimator errors (compare the same-face study).
 """
 from ..core.constants import CLASS_NAMES, DEFAULT_HF, DEFAULT_KF
-from ..core.progress import null_progress
+from ..core.progress import null_progress, sub_progress
 from ..core.writers import json_safe
 from .refinement import (ANGULAR_DEFLECTIONS, LINEAR_DEFLECTIONS, _signature_row, class_l1,
                          mesh_counts, mesh_quality_of, relative_change, tessellate)
@@ -41,7 +41,7 @@ def representation_study(source, mesh=None, lref=None, mesh_lref=None, h_f=DEFAU
     b = brep_assessment
     if b is None:
         b = assess(source, lref=lref, h_f=h_f, k_f=k_f, backend="brep", faces=faces, with_fields=False,
-                   **(brep_options or {}))
+                   progress=sub_progress(progress, 0.0, 0.6, "native BRep: "), **(brep_options or {}))
     L = b.reference_length.value
     progress(0.6, "triangulated realization")
     if mesh is None:
@@ -56,7 +56,9 @@ def representation_study(source, mesh=None, lref=None, mesh_lref=None, h_f=DEFAU
                      "n_triangles": len(mesh[1])}
     else:
         mesh_desc = {"kind": "user mesh", "path": mesh if isinstance(mesh, str) else None}
-    m = assess(mesh, lref=mesh_lref or L, h_f=h_f, k_f=k_f, backend="mesh", with_fields=False)
+    progress(0.7, "triangle mesh")
+    m = assess(mesh, lref=mesh_lref or L, h_f=h_f, k_f=k_f, backend="mesh", with_fields=False,
+               progress=sub_progress(progress, 0.7, 1.0, "triangle mesh: "))
     rb = dict(_signature_row(b), representation="native BRep")
     rm = dict(_signature_row(m), representation="triangle mesh", quality=mesh_quality_of(m))
     if "n_triangles" not in mesh_desc:

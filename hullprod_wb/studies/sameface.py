@@ -52,7 +52,7 @@ then checked to lie inside the trimmed domain.
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.progress import null_progress
+from ..core.progress import null_progress, sub_progress
 from ..core.writers import json_safe
 from .sameface_grid import (DEFAULT_INSET, INTERIOR_RINGS, NEGLIGIBLE_H, NEGLIGIBLE_K,  # noqa: F401
                             PATTERNS, RASTER, SAMEFACE_LEVELS, grid_lines, grid_parameters, grid_triangles,
@@ -362,7 +362,7 @@ def sameface_study(source, faces=None, levels=SAMEFACE_LEVELS, patterns=PATTERNS
     out_faces = []
     nf = len(brep.faces)
     for k, (number, face) in enumerate(brep.faces):
-        sub = _sub_progress(progress, k / nf, (k + 1) / nf)
+        sub = sub_progress(progress, k / nf, (k + 1) / nf)
         try:
             rec = sameface_face(face, levels, patterns, inset, curvature, sub, number, align_creases)
         except (InputError,) + occ_errors() as exc:
@@ -430,9 +430,3 @@ def abs_K_shares(assessment):
     per-face records (provenance['faces'][i]['K_share'])."""
     rows = (assessment.provenance or {}).get("faces") or []
     return {int(r["face"]): r.get("K_share") for r in rows if "face" in r}
-
-
-def _sub_progress(progress, lo, hi):
-    def sub(fraction, message=""):
-        progress(lo + (hi - lo) * max(0.0, min(1.0, fraction)), message)
-    return sub

@@ -8,7 +8,7 @@ relative spread over the tolerances, (max - min) / max |value|, is reported as t
 """
 from ..core.constants import CLASS_NAMES
 from ..core.errors import InputError
-from ..core.progress import null_progress
+from ..core.progress import null_progress, sub_progress
 from ..core.writers import json_safe
 from .refinement import _signature_row
 
@@ -42,8 +42,8 @@ def threshold_study(source, tolerances=DEFAULT_TOLERANCES, lref=None, backend=No
         raise InputError("threshold study: tolerances must be positive numbers, got %r" % (tolerances,))
     rows, first = [], None
     for k, t in enumerate(tols):
-        progress(k / len(tols), "h_f = k_f = %g" % t)
         a = assess(source, lref=lref, h_f=t, k_f=t, backend=backend, faces=faces, with_fields=False,
+                   progress=sub_progress(progress, k / len(tols), (k + 1) / len(tols), "h_f = k_f = %g: " % t),
                    **options)
         if first is None:
             first = a

@@ -327,9 +327,11 @@ def _():
     a = STATE["a_wigley"]
     FreeCADGui.Selection.clearSelection()
     FreeCADGui.Selection.addSelection(a)
+    from hullprod_wb.gui import verification_commands
     before = len(dialogs.LOG)
     FreeCADGui.runCommand("HullProd_StudyThresholds")
-    process(30)
+    run = verification_commands.LAST_RUN
+    wait_for(lambda: run is not None and run.finished, 300)
     msgs = dialogs.LOG[before:]
     report = [m[2].split("\n")[-1] for m in msgs if m[0] == "info"]
     path = report[0] if report else ""
@@ -788,7 +790,8 @@ def _():
     wait_for(lambda: False, 3)
     own_after, idle_wall = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter() - t
     idle = (own_after.ru_utime - own.ru_utime + own_after.ru_stime - own.ru_stime) / idle_wall
-    for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1)):
+    for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1),
+                        ("fcship_half_wavebem.iges", 1)):
         src = open_hull(fname, fname.split("_")[0])
         if src is None:
             out[fname] = {"skipped": "public hulls not present"}
@@ -1137,6 +1140,86 @@ def _():
            "visible": bool(first.ViewObject.Visibility), "legend": bool(first.ViewObject.ShowLegend),
            "legend_nodes": first.ViewObject.Proxy.legend_switch.getNumChildren(),
            "legend_switch": first.ViewObject.Proxy.legend_switch.whichChild.getValue()}
+    FreeCAD.closeDocument(doc.Name)
+    return out
+
+
+class LoopClock:
+    """The longest interval between the ticks of a 20 ms Qt timer while it runs: how long
+    the event loop was kept from running."""
+
+    def __init__(self):
+        self.longest, self.last = 0.0, None
+        self.timer = QtCore.QTimer()
+        self.timer.setInterval(20)
+        self.timer.timeout.connect(self.tick)
+
+    def tick(self):
+        now = time.perf_counter()
+        self.longest = max(self.longest, now - self.last)
+        self.last = now
+
+    def start(self):
+        self.last = time.perf_counter()
+        self.timer.start()
+
+    def stop(self):
+        self.tick()
+        self.timer.stop()
+
+
+@step("study_in_process")
+def _():
+    """The threshold study of an Analyze analysis of a shared hull (KCS, 125 faces, the
+    document saved): the command returns at once, the event loop keeps running (longest
+    gap of a 20 ms timer), progress arrives, the 1e-4 row has Analyze's I_D and statuses,
+    the report is beside the document, titled after the hull; then a second study is
+    cancelled with the dialog's button after its first progress."""
+    from hullprod_wb.gui import analyze_panel, dialogs, verification_commands
+    src = open_hull("kcs_full_closed_ohp.iges", "kcsstudy")
+    if src is None:
+        return {"skipped": "public hulls not present"}
+    doc = src.Document
+    folder = os.path.join(WORK, "study_document")
+    os.makedirs(folder, exist_ok=True)
+    doc.saveAs(os.path.join(folder, "kcs_study.FCStd"))
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(src)
+    FreeCADGui.runCommand("HullProd_Analyze")
+    made = analyze_panel.LAST_PANEL.run()
+    FreeCADGui.Control.closeDialog()
+    a = made[0]
+    metrics = ("I_D", "I_D_plus", "I_D_minus", "a_flat", "a_single", "a_elliptic", "a_saddle")
+    out = {"analysis": {m: getattr(a, m) for m in metrics},
+           "analysis_status": {m: getattr(a, m + "_Status") for m in metrics}, "lref": a.LrefUsed,
+           "expected_report": os.path.join(folder, "kcsstudy_thresholds_study.html")}
+    FreeCADGui.Selection.clearSelection()
+    FreeCADGui.Selection.addSelection(a)
+    clock = LoopClock()
+    clock.start()
+    t = time.perf_counter()
+    FreeCADGui.runCommand("HullProd_StudyThresholds")
+    out["command_returned_after"] = time.perf_counter() - t
+    run = verification_commands.LAST_RUN
+    wait_for(lambda: run.finished, 600)
+    clock.stop()
+    out.update(study_seconds=time.perf_counter() - t, longest_event_loop_gap=clock.longest,
+               progress_events=run.events, report=run.report, error=run.error)
+    if run.report:
+        out["rows"] = {"%g" % r["h_f"]: {"I_D": r["I_D"], "I_D_plus": r["I_D_plus"], "I_D_minus": r["I_D_minus"],
+                                        "status": r["status"]} for r in run.study["rows"]}
+        out["study_lref"] = run.study["lref"]
+        out["report_title"] = open(run.report).read().split("<h1>", 1)[1].split("</h1>", 1)[0]
+    n_info = len(dialogs.LOG)
+    FreeCADGui.runCommand("HullProd_StudyThresholds")
+    second = verification_commands.LAST_RUN
+    wait_for(lambda: second.events > 0 or second.finished, 120)
+    out["cancel_pressed_while_running"] = not second.finished
+    t = time.perf_counter()
+    second.dialog.findChild(QtWidgets.QPushButton).click()
+    wait_for(lambda: second.finished and second.proc.proc.poll() is not None, 5)
+    out.update(cancel_seconds=time.perf_counter() - t, cancelled_state=second.proc.state,
+               cancelled_report=second.report, cancel_messages=[list(m) for m in dialogs.LOG[n_info:]])
     FreeCAD.closeDocument(doc.Name)
     return out
 
