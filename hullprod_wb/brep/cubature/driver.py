@@ -42,7 +42,7 @@ from .lines import integrate_lines, interpolants, turn_cells
 from .pieces import LineSetting
 from .result import QuadratureResult
 from .settings import (AREA, K_INTEGRALS, LINE_K, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS,
-                       N_SMOOTH, OWN_SAFETY,
+                       LINE_CHUNKS, LINE_MARGIN, N_SMOOTH, OWN_SAFETY,
                        QUANTITIES, STRADDLE_MARGIN, TREE_SAFETY, ZERO_CHARGE_PARTS, ZERO_CHARGE_SHARE,
                        ZERO_SCALE)
 
@@ -302,9 +302,52 @@ class Integration:
                 sub = sub.take(keep)
                 interp = interp.take(keep)
                 lbudget = lbudget[keep]
+        if lined.any() and last and self.point_budget is not None:
+            return self._lines_within_budget(sub, interp, lbudget, tol, unit, err, lined, split)
         if lined.any():
             charge = self._lines_of(sub, interp, lbudget, err[lined], tol, unit, err, lined)
         return lined, split, charge
+
+    def _lines_within_budget(self, sub, interp, lbudget, tol, unit, err, lined, split):
+        """The lines of the last level under a point budget. A first chunk of the lined units
+        sub (1/LINE_CHUNKS^2 of them, largest error relative to tol first) measures what a
+        unit's lines cost; when the points left hold LINE_MARGIN times that for the rest, all
+        units are integrated at once as without a budget. Otherwise chunks sized by the points
+        left follow (at most LINE_CHUNKS^2), and the units not reached keep their Gauss sums
+        and quadtree estimates (|Q(cell) - sum of Q over its children|) and stay pending.
+        Returns the units on lines, those split and the bounds charged for K = 0, as
+        _line_candidates."""
+        idx = np.nonzero(lined)[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.nan_to_num(err[idx][:, LINE_Q] / tol[None, LINE_Q], nan=0.0, posinf=1e300).sum(1)
+        order = np.argsort(-rel, kind="stable")
+        charges = np.zeros(idx.size)
+        Q0, err0 = unit.Q[idx].copy(), err[idx].copy()
+        n_done, size, start = 0, max(1, idx.size // LINE_CHUNKS ** 2), self.f.n_points
+        for _ in range(LINE_CHUNKS * LINE_CHUNKS):
+            left = self.point_budget - self.f.n_points
+            if n_done:
+                per_unit = max(self.f.n_points - start, 1) / n_done
+                if n_done == size and left >= LINE_MARGIN * per_unit * (idx.size - n_done):
+                    unit.Q[idx], err[idx] = Q0, err0  # the budget holds them all: as without one
+                    return lined, split, self._lines_of(sub, interp, lbudget, err0, tol, unit, err, lined)
+                size = int(left / per_unit)
+            if n_done == idx.size or left <= 0 or size < 1:
+                break
+            pick = np.zeros(idx.size, bool)
+            pick[order[n_done:n_done + size]] = True
+            mask = np.zeros(unit.size, bool)
+            mask[idx[pick]] = True
+            charges[pick] = self._lines_of(sub.take(pick), interp.take(pick), lbudget[pick], err[mask], tol,
+                                           unit, err, mask)
+            n_done += int(pick.sum())
+        done = np.zeros(idx.size, bool)
+        done[order[:n_done]] = True
+        if n_done < idx.size:
+            self.budget_spent = True
+        lined = np.zeros(unit.size, bool)
+        lined[idx[done]] = True
+        return lined, split, charges[done]
 
     def _lines_of(self, sub, interp, lbudget, err_lined, tol, unit, err, lined):
         """The lines of the units sub with their interpolants and budgets, into unit.Q and

@@ -114,6 +114,14 @@ STALL_RATIO = 0.45
 
 MAX_PIECES = 64
 
+#: Under a point budget, the last level's lines start with a chunk of 1/LINE_CHUNKS^2 of the
+#: mixed cells, largest error first, which measures their cost; where the points left do not
+#: hold the rest, chunks sized by the points left follow (Integration._lines_within_budget).
+LINE_CHUNKS = 8
+#: The points left must hold this many times the first chunk's cost a cell for the rest of the
+#: last level's lines to be computed at once (the cost of lines varies between cells).
+LINE_MARGIN = 2.0
+
 
 #: A mixed cell's lines are taken on its local interpolant (see lines.interpolants)
 #: when the interpolant's error estimate is within this share of the cell's budget.
