@@ -114,12 +114,11 @@ STALL_RATIO = 0.45
 
 MAX_PIECES = 64
 
-#: Under a point budget, the last level's lines start with a chunk of 1/LINE_CHUNKS^2 of the
-#: mixed cells, largest error first, which measures their cost; where the points left do not
-#: hold the rest, chunks sized by the points left follow (Integration._lines_within_budget).
+#: Under a point budget, the last level's lines are computed in chunks, largest error first:
+#: 1/LINE_CHUNKS^2 of the mixed cells, then as many as the points left hold (at LINE_MARGIN
+#: times the points a cell's lines took so far; Integration._lines_within_budget).
 LINE_CHUNKS = 8
-#: The points left must hold this many times the first chunk's cost a cell for the rest of the
-#: last level's lines to be computed at once (the cost of lines varies between cells).
+#: Safety on the cost of a cell's lines when a chunk is sized (the cost varies between cells).
 LINE_MARGIN = 2.0
 
 
