@@ -42,7 +42,7 @@ from .lines import integrate_lines, interpolants, turn_cells
 from .pieces import LineSetting
 from .result import QuadratureResult
 from .settings import (AREA, K_INTEGRALS, LINE_K, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS,
-                       N_SMOOTH, OWN_SAFETY,
+                       LINE_CHUNKS, LINE_MARGIN, N_SMOOTH, OWN_SAFETY,
                        QUANTITIES, STRADDLE_MARGIN, TREE_SAFETY, ZERO_CHARGE_PARTS, ZERO_CHARGE_SHARE,
                        ZERO_SCALE)
 
@@ -302,17 +302,69 @@ class Integration:
                 sub = sub.take(keep)
                 interp = interp.take(keep)
                 lbudget = lbudget[keep]
+        if lined.any() and last and self.point_budget is not None:
+            return self._lines_within_budget(sub, interp, lbudget, tol, unit, err, lined, split)
         if lined.any():
             charge = self._lines_of(sub, interp, lbudget, err[lined], tol, unit, err, lined)
         return lined, split, charge
 
-    def _lines_of(self, sub, interp, lbudget, err_lined, tol, unit, err, lined):
+    def _lines_within_budget(self, sub, interp, lbudget, tol, unit, err, lined, split):
+        """The lines of the last level under a point budget, in chunks of the lined units sub,
+        largest error relative to tol first: the first 1/LINE_CHUNKS^2 of them, then as many
+        as the points left hold at LINE_MARGIN times the points a unit's lines took so far, at
+        most as many as were done (at most LINE_CHUNKS^2 chunks). The units not reached keep their Gauss sums and quadtree
+        estimates (|Q(cell) - sum of Q over its children|) and stay pending. Returns the units
+        on lines, those split and the bounds charged for K = 0, as _line_candidates."""
+        idx = np.nonzero(lined)[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.nan_to_num(err[idx][:, LINE_Q] / tol[None, LINE_Q], nan=0.0, posinf=1e300).sum(1)
+        order = np.argsort(-rel, kind="stable")
+        charges = np.zeros(idx.size)
+        err0 = err[idx].copy()
+        n_done, size, start = 0, max(1, idx.size // LINE_CHUNKS ** 2), self.f.n_points
+        for _ in range(LINE_CHUNKS * LINE_CHUNKS):
+            left = self.point_budget - self.f.n_points
+            if n_done:
+                size = min(n_done, int(left * n_done / (LINE_MARGIN * max(self.f.n_points - start, 1))))
+            if n_done == idx.size or left <= 0 or size < 1:
+                break
+            resolved, size = self.ls.resolve_zero, min(size, idx.size - n_done)
+            n_done += size
+            charges[order[n_done - size:n_done]] = self._chunk_lines(
+                order[n_done - size:n_done], idx, sub, interp, lbudget, err0, tol, unit, err, float(charges.sum()))
+            if self.ls.resolve_zero and not resolved and n_done > size:
+                # K = 0 resolved from this chunk on: the earlier chunks again, as in one pass
+                charges[order[:n_done - size]] = self._chunk_lines(order[:n_done - size], idx, sub, interp,
+                                                                   lbudget, err0, tol, unit, err, 0.0)
+        done = np.zeros(idx.size, bool)
+        done[order[:n_done]] = True
+        if n_done < idx.size:
+            self.budget_spent = True
+        lined = np.zeros(unit.size, bool)
+        lined[idx[done]] = True
+        return lined, split, charges[done]
+
+    def _chunk_lines(self, rows, idx, sub, interp, lbudget, err0, tol, unit, err, earlier):
+        """_lines_of the lined units rows (indices into sub, whose units are idx of unit) with
+        their quadtree estimates err0; earlier: the bounds charged on this level before."""
+        pick = np.zeros(idx.size, bool)
+        pick[rows] = True
+        mask = np.zeros(unit.size, bool)
+        mask[idx[pick]] = True
+        charge = self._lines_of(sub.take(pick), interp.take(pick), lbudget[pick], err0[pick], tol, unit, err,
+                                mask, earlier=earlier)
+        out = np.zeros(idx.size)
+        out[pick] = charge
+        return out[rows]
+
+    def _lines_of(self, sub, interp, lbudget, err_lined, tol, unit, err, lined, earlier=0.0):
         """The lines of the units sub with their interpolants and budgets, into unit.Q and
-        err at lined; K = 0 is resolved from here on when the bounds charged for it would
-        take too much of the K integrals' tolerance. Returns the bounds charged (k,)."""
+        err at lined; K = 0 is resolved from here on when the bounds charged for it (with
+        those charged earlier on this level) would take too much of the K integrals'
+        tolerance. Returns the bounds charged (k,)."""
         mc = turn_cells(self.ls, sub, interp)
         val, lerr, _, charge = integrate_lines(self.ls, mc, lbudget)
-        if not self.ls.resolve_zero and np.any((self.zero_charge + charge.sum()) * ZERO_CHARGE_PARTS
+        if not self.ls.resolve_zero and np.any((self.zero_charge + earlier + charge.sum()) * ZERO_CHARGE_PARTS
                                                > ZERO_CHARGE_SHARE * tol[K_INTEGRALS]):
             # the bounds for K = 0 left unresolved would take too much of the K
             # integrals' tolerance (small K integrals): resolve it from here on

@@ -114,6 +114,13 @@ STALL_RATIO = 0.45
 
 MAX_PIECES = 64
 
+#: Under a point budget, the last level's lines are computed in chunks, largest error first:
+#: 1/LINE_CHUNKS^2 of the mixed cells, then as many as the points left hold (at LINE_MARGIN
+#: times the points a cell's lines took so far; Integration._lines_within_budget).
+LINE_CHUNKS = 8
+#: Safety on the cost of a cell's lines when a chunk is sized (the cost varies between cells).
+LINE_MARGIN = 2.0
+
 
 #: A mixed cell's lines are taken on its local interpolant (see lines.interpolants)
 #: when the interpolant's error estimate is within this share of the cell's budget.
