@@ -1063,6 +1063,17 @@ def gl_viewport():
     return max(gl, key=lambda w: w.width() * w.height()) if gl else sub
 
 
+def viewer_widgets():
+    """The active 3D view's widgets that may take a person's mouse: its GL viewport, then the
+    viewer widgets around it, largest first."""
+    sub = FreeCADGui.getMainWindow().findChild(QtWidgets.QMdiArea).activeSubWindow().widget()
+    found = [gl_viewport()]
+    for w in sorted(sub.findChildren(QtWidgets.QWidget), key=lambda w: -w.width() * w.height()):
+        if w.isVisible() and w not in found and "Viewer" in w.metaObject().className():
+            found.append(w)
+    return found
+
+
 def click(widget, x, y):
     """A left click of a person at widget pixel (x, y): move, press, release."""
     pos = QtCore.QPointF(x, y)
@@ -1091,16 +1102,20 @@ def _():
     FreeCADGui.runCommand("HullProd_Probe")
     process(100)
     panel = probe.ACTIVE
-    vp = gl_viewport()
     bb = a.Source.Mesh.BoundBox
     centre = FreeCAD.Vector(bb.Center.x, bb.YMax, bb.Center.z)
     x, y = view().getPointOnScreen(centre)
     tried, hits = [], []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        for px, py in ((x, vp.height() - y), (x, y)):
-            tried.append([px, py])
-            click(vp, px, py)
+        # the widget that takes the mouse differs between versions: the GL viewport (0.20,
+        # 1.0) or the viewer around it (1.1); each gets the click until one probes
+        for vp in viewer_widgets():
+            for px, py in ((x, vp.height() - y), (x, y)):
+                tried.append([vp.metaObject().className(), px, py])
+                click(vp, px, py)
+                if panel.table.rowCount():
+                    break
             if panel.table.rowCount():
                 break
     selected = [o.Name for o in FreeCADGui.Selection.getSelection(doc.Name)]
@@ -1112,7 +1127,7 @@ def _():
     selectable_after = [o.Name for o in FreeCADGui.Selection.getSelection(doc.Name)] == [a.Name]
     FreeCADGui.Selection.clearSelection()
     FreeCAD.closeDocument(doc.Name)
-    return {"rows": rows, "selected": selected, "tried": tried,
+    return {"rows": rows, "selected": selected, "tried": tried, "freecad": [int(v) for v in FreeCAD.Version()[:2]],
             "warnings": ["%s:%s: %s" % (w.filename, w.lineno, w.message) for w in caught],
             "selectable_after_close": selectable_after}
 
