@@ -209,16 +209,24 @@ def check_damaged_mesh(folder):
 
 # -- the document object and export --------------------------------------------------------------
 def source_fingerprint(obj):
-    """Everything about a Part source that an analysis must never change."""
-    geo = obj.Shape.exportBrepToString()
-    return (hashlib.sha256(geo.encode()).hexdigest(), obj.Shape.Area, str(obj.Placement), obj.Label)
+    """Everything about a Part or Mesh source that an analysis must never change: its
+    geometry's digest, measures, placement and label."""
+    if hasattr(obj, "Shape"):
+        geo = obj.Shape.exportBrepToString()
+        extra = (obj.Shape.Area, obj.Shape.Volume, obj.Shape.hashCode())
+    else:
+        pts, tri = obj.Mesh.Topology
+        geo = repr((np.asarray(pts).round(15).tolist(), tri))
+        extra = (obj.Mesh.Area, obj.Mesh.Volume, obj.Mesh.CountFacets)
+    return (hashlib.sha256(geo.encode()).hexdigest(), extra, str(obj.Placement), obj.Label)
 
 
-def wigley_feature(doc, name="HalfWigley"):
-    """A Part::Feature holding the example hull in doc."""
-    from .examples.builtin import half_wigley_shape
+def wigley_feature(doc, name="HalfWigley", L=None):
+    """A Part::Feature holding the example hull in doc, scaled to length L (default: as built)."""
+    from .examples.builtin import WIGLEY_B, WIGLEY_L, WIGLEY_T, half_wigley_shape
+    s = 1.0 if L is None else L / WIGLEY_L
     obj = doc.addObject("Part::Feature", name)
-    obj.Shape = half_wigley_shape()
+    obj.Shape = half_wigley_shape(WIGLEY_L * s, WIGLEY_B * s, WIGLEY_T * s)
     doc.recompute()
     return obj
 

@@ -2,7 +2,6 @@
 source change, save/reload, export, probe, compare, selection parsing, preferences,
 package metadata, and the App/GUI split (no non-GUI module imports FreeCADGui or Qt)."""
 import csv
-import hashlib
 import json
 import math
 import os
@@ -14,6 +13,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, needs_freecad, shared_hull
+from hullprod_wb.selftest import source_fingerprint as fingerprint, wigley_feature
 
 pytestmark = needs_freecad
 
@@ -39,33 +39,12 @@ def doc(fc):
         fc.closeDocument(name)
 
 
-def wigley_feature(doc, name="HalfWigley", L=None):
-    from hullprod_wb.examples.builtin import WIGLEY_B, WIGLEY_L, WIGLEY_T, half_wigley_shape
-    s = 1.0 if L is None else L / WIGLEY_L
-    obj = doc.addObject("Part::Feature", name)
-    obj.Shape = half_wigley_shape(WIGLEY_L * s, WIGLEY_B * s, WIGLEY_T * s)
-    doc.recompute()
-    return obj
-
-
 def mesh_feature(doc, V, F, name="Mesh"):
     import Mesh
     obj = doc.addObject("Mesh::Feature", name)
     obj.Mesh = Mesh.Mesh(np.asarray(V)[np.asarray(F)].tolist())
     doc.recompute()
     return obj
-
-
-def fingerprint(obj):
-    """Everything about the source that an analysis must never change."""
-    if hasattr(obj, "Shape"):
-        geo = obj.Shape.exportBrepToString()
-        extra = (obj.Shape.Area, obj.Shape.Volume, obj.Shape.hashCode())
-    else:
-        pts, tri = obj.Mesh.Topology
-        geo = repr((np.asarray(pts).round(15).tolist(), tri))
-        extra = (obj.Mesh.Area, obj.Mesh.Volume, obj.Mesh.CountFacets)
-    return (hashlib.sha256(geo.encode()).hexdigest(), extra, str(obj.Placement), obj.Label)
 
 
 # -- App/GUI split -------------------------------------------------------------------------------

@@ -4,9 +4,9 @@ function that raises AssertionError saying what differs, and returns what it saw
 FreeCAD's Test workbench runs them through TestHullProdGui (registered in InitGui.py);
 tests/gui_scripts/gui_checks.py calls the same functions in its GUI session.
 """
-import hashlib
 import time
 
+from ..selftest import check, source_fingerprint as fingerprint, wigley_feature
 from .on_screen import describe, seen_by_a_person
 from .qt import QtCore, QtWidgets
 
@@ -15,24 +15,11 @@ WORKBENCH = "HullProdWorkbench"
 SETTLE = 0.3
 
 
-def check(condition, message):
-    """Raise AssertionError(message) unless condition."""
-    if not condition:
-        raise AssertionError(message)
-
-
 def process(seconds=SETTLE):
     """Run the event loop for seconds."""
     end = time.monotonic() + seconds
     while time.monotonic() < end:
         QtWidgets.QApplication.processEvents(QtCore.QEventLoop.AllEvents, 20)
-
-
-def fingerprint(obj):
-    """Hash of a Part feature's shape with its area, volume and placement."""
-    shape = obj.Shape
-    return [hashlib.sha256(shape.exportBrepToString().encode()).hexdigest(), shape.Area, shape.Volume,
-            str(obj.Placement)]
 
 
 def check_seen(widget, what):
@@ -68,12 +55,8 @@ def hull_document(name="HullProdSelfTest"):
     """A new document holding the half-Wigley hull (hullprod_wb.examples.builtin) as a
     Part::Feature; returns (doc, feature)."""
     import FreeCAD
-    from ..examples.builtin import half_wigley_shape
     doc = FreeCAD.newDocument(name)
-    src = doc.addObject("Part::Feature", "HalfWigley")
-    src.Shape = half_wigley_shape()
-    doc.recompute()
-    return doc, src
+    return doc, wigley_feature(doc)
 
 
 def close_document(doc):

@@ -53,6 +53,7 @@ try:
     from hullprod_wb.gui.qt import QtCore, QtGui, QtWidgets
     from hullprod_wb.gui import selftest
     from hullprod_wb.gui.on_screen import seen_by_a_person
+    from hullprod_wb.selftest import source_fingerprint as fingerprint
     import hullprod_wb
     RESULT["package"] = os.path.realpath(os.path.dirname(hullprod_wb.__file__))
     os.makedirs(SHOTS, exist_ok=True)
@@ -66,18 +67,6 @@ def process(ms=50):
     end = time.time() + ms / 1000.0
     while time.time() < end:
         QtWidgets.QApplication.processEvents()
-
-
-def fingerprint(obj):
-    import hashlib
-    if hasattr(obj, "Shape"):
-        geo = obj.Shape.exportBrepToString()
-        extra = [obj.Shape.Area, obj.Shape.Volume]
-    else:
-        pts, tri = obj.Mesh.Topology
-        geo = repr((np.asarray(pts).round(15).tolist(), tri))
-        extra = [obj.Mesh.Area, obj.Mesh.CountFacets]
-    return [hashlib.sha256(geo.encode()).hexdigest(), extra, str(obj.Placement)]
 
 
 def view():
