@@ -65,3 +65,51 @@ def made_in_a_child(make):
     from hullprod_wb.core.processes import ForkedCall
     from hullprod_wb.brep.reading.loading import shape_from_bytes, shape_to_bytes
     return shape_from_bytes(ForkedCall(lambda: shape_to_bytes(make())).result())
+
+
+def home_with_this_checkout(home):
+    """home made a private HOME whose FreeCAD user Mod folders (0.20: ~/.FreeCAD/Mod; later
+    versions: ~/.local/share/FreeCAD/Mod) hold this checkout only: FreeCAD started there runs
+    the workbench of the tree the test belongs to, whatever is installed for the user."""
+    for mod in (home / ".FreeCAD" / "Mod", home / ".local" / "share" / "FreeCAD" / "Mod"):
+        mod.mkdir(parents=True)
+        (mod / "HullProd").symlink_to(ROOT)
+    return home
+
+
+def fresh_user_env(home):
+    """os.environ of a user who has never started FreeCAD: HOME = home, no XDG_ folders, no
+    PYTHONPATH."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("XDG_") and k != "PYTHONPATH"}
+    env["HOME"] = str(home)
+    return env
+
+
+#: The virtual screen of GUI sessions: larger than the window (1500 x 950, resized up to
+#: 1600 x 1000 on the way), since a part of the window off the screen is seen by nobody.
+GUI_SCREEN = "-screen 0 1920x1200x24"
+
+
+def gui_session(script, work, timeout, **env):
+    """Run script in the real FreeCAD GUI under Xvfb with a private HOME in work (this
+    checkout as its workbench) and env added; the JSON document the script wrote to
+    $HULLPROD_GUI_RESULT (work/result.json). The session runs in a process group of its own:
+    on a timeout xvfb-run, Xvfb and FreeCAD are all stopped and the test fails."""
+    import json
+    import signal
+    import subprocess
+    out = work / "result.json"
+    full = dict(os.environ, HOME=str(home_with_this_checkout(work / "home")), QTWEBENGINE_CHROMIUM_FLAGS="--no-sandbox",
+                HULLPROD_GUI_RESULT=str(out), **env)
+    full.pop("QT_QPA_PLATFORM", None)  # the real window system (Xvfb), not Qt's offscreen plugin
+    proc = subprocess.Popen(["xvfb-run", "-a", "-s", GUI_SCREEN, "freecad", script], env=full, cwd=str(work),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, encoding="utf-8",
+                            errors="replace", start_new_session=True)
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        stdout, stderr = proc.communicate()
+        pytest.fail("FreeCAD GUI session did not finish in %d s (a modal dialog?): %s" % (timeout, stdout[-2000:]))
+    assert out.is_file(), "GUI script wrote no result; FreeCAD said:\n%s\n%s" % (stdout[-3000:], stderr[-3000:])
+    return json.loads(out.read_text())

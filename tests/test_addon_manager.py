@@ -13,7 +13,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, fresh_user_env
 
 FREECADCMD = shutil.which("freecadcmd")
 HELPER = os.path.join(ROOT, "tests", "addon_manager_install.py")
@@ -26,9 +26,8 @@ pytestmark = pytest.mark.skipif(FREECADCMD is None, reason="freecadcmd is not in
 
 def fresh_env(home):
     """The environment of a user who has never started FreeCAD, with home as HOME, no network."""
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith("XDG_") and k != "PYTHONPATH" and "proxy" not in k.lower()}
-    env.update(HOME=str(home), http_proxy=NO_NETWORK, https_proxy=NO_NETWORK, HTTP_PROXY=NO_NETWORK,
+    env = {k: v for k, v in fresh_user_env(home).items() if "proxy" not in k.lower()}
+    env.update(http_proxy=NO_NETWORK, https_proxy=NO_NETWORK, HTTP_PROXY=NO_NETWORK,
                HTTPS_PROXY=NO_NETWORK, ALL_PROXY=NO_NETWORK)
     return env
 

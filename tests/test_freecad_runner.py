@@ -8,16 +8,9 @@ import subprocess
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, fresh_user_env
 
 pytestmark = pytest.mark.skipif(shutil.which("freecadcmd") is None, reason="freecadcmd is not installed")
-
-
-def fresh_env(home):
-    """The environment of a user who has never started FreeCAD, with home as HOME."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith("XDG_") and k != "PYTHONPATH"}
-    env["HOME"] = str(home)
-    return env
 
 
 def freecadcmd(env, *args, cwd):
@@ -38,7 +31,7 @@ def installed(tmp_path_factory):
     """A fresh user's HOME after tools/install.sh: (env, work folder)."""
     home = tmp_path_factory.mktemp("fresh_user")
     work = tmp_path_factory.mktemp("elsewhere")
-    env = fresh_env(home)
+    env = fresh_user_env(home)
     r = subprocess.run(["bash", os.path.join(ROOT, "tools", "install.sh")], capture_output=True, text=True, env=env,
                        timeout=900)
     assert r.returncode == 0, r.stderr[-3000:]

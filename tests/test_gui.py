@@ -8,16 +8,13 @@ the command line), saves 3D-view and window screenshots and writes a JSON of wha
 the tests below assert on that JSON and on the PNG files. Refresh the pictures of
 docs/gui.md with HULLPROD_UPDATE_SCREENSHOTS=1 /usr/bin/python3 -m pytest tests/test_gui.py
 """
-import json
 import os
 import shutil
-import signal
-import subprocess
 
 import numpy as np
 import pytest
 
-from conftest import ROOT, SHARED_HULLS
+from conftest import ROOT, SHARED_HULLS, gui_session
 
 SCRIPT = os.path.join(ROOT, "tests", "gui_scripts", "gui_checks.py")
 #: HULLPROD_UPDATE_SCREENSHOTS=1 writes the screenshots into docs/screenshots (the pictures
@@ -44,31 +41,8 @@ def shots(tmp_path_factory):
 @pytest.fixture(scope="module")
 def gui(tmp_path_factory, shots):
     work = tmp_path_factory.mktemp("gui")
-    out = work / "result.json"
-    # A private HOME whose FreeCAD Mod folders hold this checkout only: the test runs the
-    # workbench of the tree it belongs to, whatever is installed for the user.
-    home = work / "home"
-    for mod in (home / ".FreeCAD" / "Mod", home / ".local" / "share" / "FreeCAD" / "Mod"):
-        mod.mkdir(parents=True)
-        (mod / "HullProd").symlink_to(ROOT)
-    env = dict(os.environ, HOME=str(home), QTWEBENGINE_CHROMIUM_FLAGS="--no-sandbox", HULLPROD_GUI_RESULT=str(out),
-               HULLPROD_SCREENSHOTS=shots, HULLPROD_WORK=str(work),
-               HULLPROD_SHARED_HULLS=SHARED_HULLS if os.path.isdir(SHARED_HULLS) else "")
-    env.pop("QT_QPA_PLATFORM", None)  # the real window system (Xvfb), not Qt's offscreen plugin
-    # Own process group: on a timeout xvfb-run, Xvfb and FreeCAD are all stopped.
-    # A screen larger than the window (1500 x 950, resized up to 1600 x 1000 on the way): a
-    # part of the window off the screen is not seen by anybody (on_screen's checks).
-    proc = subprocess.Popen(["xvfb-run", "-a", "-s", "-screen 0 1920x1200x24", "freecad", SCRIPT], env=env, cwd=str(work),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, encoding="utf-8",
-                            errors="replace", start_new_session=True)
-    try:
-        stdout, stderr = proc.communicate(timeout=TIMEOUT)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        stdout, stderr = proc.communicate()
-        pytest.fail("FreeCAD GUI session did not finish in %d s (a modal dialog?): %s" % (TIMEOUT, stdout[-2000:]))
-    assert out.is_file(), "GUI script wrote no result; FreeCAD said:\n%s\n%s" % (stdout[-3000:], stderr[-3000:])
-    res = json.loads(out.read_text())
+    res = gui_session(SCRIPT, work, TIMEOUT, HULLPROD_SCREENSHOTS=shots, HULLPROD_WORK=str(work),
+                      HULLPROD_SHARED_HULLS=SHARED_HULLS if os.path.isdir(SHARED_HULLS) else "")
     assert not res["errors"], res["errors"]
     assert res["package"] == os.path.realpath(os.path.join(ROOT, "hullprod_wb")), (
         "FreeCAD loaded the workbench from %s, not from this checkout" % res["package"])

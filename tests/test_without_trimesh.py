@@ -13,7 +13,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from conftest import ROOT, needs_freecad
+from conftest import ROOT, fresh_user_env, home_with_this_checkout, needs_freecad
 
 #: Prepended to every script: trimesh cannot be imported in this process.
 BLOCK = "import sys; sys.modules['trimesh'] = None\n"
@@ -75,10 +75,7 @@ def test_command_without_trimesh(mesh_files, tmp_path):
 @pytest.mark.skipif(shutil.which("freecadcmd") is None, reason="freecadcmd is not installed")
 def test_freecadcmd_self_test_without_trimesh(tmp_path):
     """FreeCAD's console loads the workbench (Init.py) and the installed self-test passes."""
-    home = tmp_path / "home"
-    for mod in (home / ".FreeCAD" / "Mod", home / ".local" / "share" / "FreeCAD" / "Mod"):
-        mod.mkdir(parents=True)
-        (mod / "HullProd").symlink_to(ROOT)
+    home = home_with_this_checkout(tmp_path / "home")
     script = BLOCK + textwrap.dedent("""
         import unittest
         import FreeCAD
@@ -90,8 +87,7 @@ def test_freecadcmd_self_test_without_trimesh(tmp_path):
               len(result.failures) + len(result.errors)), flush=True)
         sys.exit(0 if result.wasSuccessful() else 1)
     """)
-    env = {k: v for k, v in os.environ.items() if not k.startswith("XDG_")}
-    env["HOME"] = str(home)
+    env = fresh_user_env(home)
     (tmp_path / "self_test.py").write_text(script)
     r = subprocess.run(["freecadcmd", str(tmp_path / "self_test.py")], capture_output=True, text=True, env=env,
                        cwd=str(tmp_path), timeout=300)
