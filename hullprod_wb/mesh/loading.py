@@ -36,17 +36,9 @@ from ..core.inputs import checked_path, sha256_file
 from .curvature import check_arrays, check_faces, check_finite
 from .face_geometry import coordinate_rows, face_measures
 from .quality import finished_record, measured_record
-from .readers import read_mesh_file
+from .readers import read_mesh_file, require_trimesh
 from .topology import edge_table, face_neighbours, import_sparse_in_background
 from .weld import unique_rows, weld_exact
-
-
-def _trimesh():
-    try:
-        import trimesh
-    except ImportError as exc:  # pragma: no cover - trimesh is a declared dependency
-        raise InputError("reading mesh files needs the Python package trimesh (%s)" % exc) from None
-    return trimesh
 
 
 def load_mesh(path):
@@ -254,7 +246,7 @@ class PreparedMesh:
 
     def to_trimesh(self):
         """trimesh.Trimesh of the prepared mesh with metadata['hullprod'] = info."""
-        mesh = _trimesh().Trimesh(vertices=self.vertices, faces=self.faces, process=False, validate=False)
+        mesh = require_trimesh("a trimesh.Trimesh result").Trimesh(vertices=self.vertices, faces=self.faces, process=False, validate=False)
         mesh.metadata["hullprod"] = self.info
         return mesh
 

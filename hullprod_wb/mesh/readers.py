@@ -258,19 +258,19 @@ def _simple_obj(data):
     return V, F
 
 
-#: What a reader that needs trimesh says where it is not installed (one line, how to install).
-TRIMESH_MISSING = ("reading %s files needs the Python package trimesh, which is not installed: install it "
-                   "into FreeCAD's Python and restart FreeCAD (on Debian: /usr/bin/python3 -m pip install "
+#: What a use of trimesh says where it is not installed (one line, how to install).
+TRIMESH_MISSING = ("%s needs the Python package trimesh, which is not installed: install it into "
+                   "FreeCAD's Python and restart FreeCAD (on Debian: /usr/bin/python3 -m pip install "
                    "--break-system-packages --no-deps 'trimesh>=4.4,<5'); binary STL and binary PLY "
                    "files of triangles are read without it")
 
 
-def _trimesh():
-    """The trimesh package, or None where it is not installed."""
+def require_trimesh(what):
+    """The trimesh package; InputError(TRIMESH_MISSING naming what) where it is not installed."""
     try:
         import trimesh
     except ImportError:
-        return None
+        raise InputError(TRIMESH_MISSING % what) from None
     return trimesh
 
 
@@ -314,9 +314,7 @@ class _ReaderLog(logging.Handler):
 def _trimesh_reader(path, fmt):
     """The file through trimesh's reader of fmt (no processing, no scene): RawMesh. Any error of
     the reader, raised or caught and logged by trimesh, is InputError (a damaged file)."""
-    trimesh = _trimesh()
-    if trimesh is None:
-        raise InputError(TRIMESH_MISSING % ("ASCII STL" if fmt == "stl" else "this kind of " + fmt.upper()))
+    trimesh = require_trimesh("reading %s files" % ("ASCII STL" if fmt == "stl" else "this kind of " + fmt.upper()))
     try:
         with _ReaderLog() as log:
             if fmt == "stl":
