@@ -293,6 +293,10 @@ def test_validity_panel(gui, shots):
     assert [r[0] for r in rows] == list(METRICS)
     assert all(r[2] in STATUSES for r in rows)
     assert all(r[3].startswith(r[2] + ":") for r in rows)  # plain-language sentence per status
+    for k, r in enumerate(rows):  # a sentence said once; a later metric with the same points to it
+        if ": as for " in r[3]:
+            named = r[3].split(": as for ", 1)[1].rstrip(".")
+            assert any(q[0] == named and q[2] == r[2] and ": as for " not in q[3] for q in rows[:k]), (r, rows)
     assert len(set(rec["status_colors"])) >= 1 and all(c.startswith("#") for c in rec["status_colors"])
     assert {"backend", "file", "sha256", "units", "L_ref", "faces used", "software"} <= set(rec["provenance"])
     assert rec["face_rows"] and rec["face_rows"][0][0] == "Face1"
@@ -552,11 +556,15 @@ def test_compare_lists_analyses_of_every_open_document(gui):
 @pytest.mark.parametrize("size", ["1280x720", "1600x1000"])
 def test_panels_fit_the_default_combo_view(gui, size):
     """Every shown widget of the Analyze, validity, probe and compare panels ends inside the
-    task view's visible width (or the task view scrolls sideways); the reason column of the
-    validity table holds a phrase, not one word per line."""
+    task view's visible width (or the task view scrolls sideways); the Analyze and validity
+    panels fit without scrolling sideways, and the validity table's reasons (each on a row
+    spanning the table) hold a phrase per line, not one word."""
     rec = step(gui, "panels_fit_and_speak_plainly")[size]
     for panel in ("analyze", "validity", "probe", "compare"):
         assert rec[panel] == [], (panel, rec["combo_width"])
+    # the panels fit the combo view's width: nothing needs scrolling sideways to be read
+    assert rec["validity_scrolls_sideways"] is False, rec["validity_scrolls_sideways"]
+    assert rec["analyze_scrolls_sideways"] is False, rec["analyze_scrolls_sideways"]
     assert rec["reason_chars"] >= 24, rec
 
 

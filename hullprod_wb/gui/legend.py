@@ -123,13 +123,18 @@ def make_legend_widget(legend, parent=None):
             self._fit()
 
         def _fit(self):
-            line = self.fontMetrics().height() + 2
-            lg = self.legend
-            if lg.kind == "gradient":
-                lines = 4 + max(1, len(lg.note) // 60)  # title, bar, ticks, the note wrapped
-            else:
-                lines = 2 + (len(lg.entries) + 1) // 2 + max(1, len(lg.note) // 60)
-            self.setMinimumHeight(line * lines + 8)
+            """As tall as the title, the bar and ticks (or the entries) and the note wrapped to
+            the present width."""
+            fm = self.fontMetrics()
+            line, lg = fm.height() + 2, self.legend
+            above = line + 4 + (24 + line if lg.kind == "gradient" else line * ((len(lg.entries) + 1) // 2))
+            note = fm.boundingRect(QtCore.QRect(0, 0, max(40, self.width() - 8), 10 ** 5), QtCore.Qt.TextWordWrap,
+                                   lg.note).height() if lg.note else 0
+            self.setMinimumHeight(above + note + 6)
+
+        def resizeEvent(self, event):  # noqa: N802 - Qt API
+            super().resizeEvent(event)
+            self._fit()
 
         def set_legend(self, legend):
             self.legend = legend

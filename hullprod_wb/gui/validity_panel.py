@@ -1,8 +1,9 @@
 """Validity and provenance panel of one analysis (a task panel).
 
-Seven signature rows with value, coloured status and reason; areas; evidence; where the
-numbers come from (backend, file, sha256, units, L_ref, faces, software); the per-face
-(plate) table for a BRep; colour-map buttons with the legend; the JSON one click away.
+Seven signature rows with value and coloured status, each with its reason on a row beneath;
+areas; evidence; where the numbers come from (backend, file, sha256, units, L_ref, faces,
+software); the per-face (plate) table for a BRep; colour-map buttons with the legend; the
+JSON one click away.
 """
 import json
 
@@ -13,8 +14,8 @@ from .wording import area_text
 from .legend import make_legend_widget
 from .qt import QtCore, QtGui, QtWidgets, CloseOnlyPanel
 
-#: Width of the reason column in average characters: a phrase per line, not a word.
-REASON_CHARS = 32
+#: Narrowest signature table in average characters: a reason wraps a phrase per line.
+REASON_CHARS = 28
 
 FACE_COLUMNS = ("face", "status", "I_D", "share", "area", "surface", "I_D+", "I_D-", "flat", "single",
                 "elliptic", "saddle")
@@ -63,8 +64,9 @@ class ValidityPanel(CloseOnlyPanel):
         self.obj = obj
         self.doc = app_analysis.result_document(obj)
         self.form = QtWidgets.QWidget()
-        self.form.setWindowTitle("HullProd validity and provenance")
+        self.form.setWindowTitle("HullProd validity")
         lay = QtWidgets.QVBoxLayout(self.form)
+        lay.setContentsMargins(0, 0, 0, 0)  # the task box has its own: the panel fits a narrow combo view
         lay.addWidget(self._header())
         lay.addWidget(self._signature_table())
         lay.addWidget(self._areas())
@@ -99,39 +101,64 @@ class ValidityPanel(CloseOnlyPanel):
         return lab
 
     def _fit_rows(self):
-        """Rows as tall as their wrapped reason at the reason column's present width."""
+        """Rows as tall as their wrapped reason at the table's present width."""
         t = self.signature_table
         t.resizeRowsToContents()
+        span = sum(t.columnWidth(j) for j in range(3))
+        for i in range(1, t.rowCount(), 2):  # a reason wraps across its row's span, not one column
+            t.setRowHeight(i, t.cellWidget(i, 0).heightForWidth(span) + 2)
         t.setMinimumHeight(t.horizontalHeader().height() + sum(t.rowHeight(i) for i in range(t.rowCount())) + 6)
 
+    def signature_cells(self):
+        """[metric, value, status, meaning / reason] of each metric, as the table shows them."""
+        t = self.signature_table
+        return [[t.item(2 * i, j).text() for j in range(3)] + [t.cellWidget(2 * i + 1, 0).text()]
+                for i in range(len(METRICS))]
+
     def _signature_table(self):
-        t = QtWidgets.QTableWidget(len(METRICS), 4)
-        t.setHorizontalHeaderLabels(["metric", "value", "status", "meaning / reason"])
+        """Metric, value and status side by side; beneath each, its meaning and reason on a
+        row spanning the table, wrapped to the panel's width (a narrow task view keeps a
+        phrase per line instead of one word)."""
+        t = QtWidgets.QTableWidget(2 * len(METRICS), 3)
+        t.setHorizontalHeaderLabels(["metric", "value", "status"])
         t.verticalHeader().setVisible(False)
-        self.rows = []
+        self.rows, first_said = [], {}
         for i, m in enumerate(METRICS):
             rec = self.doc["validity"][m]
             status = rec["status"]
-            t.setItem(i, 0, _item(METRIC_LABELS[m], wording.METRIC_TEXT[m]))
-            t.setItem(i, 1, _item(wording.format_value(rec["value"])))
+            t.setItem(2 * i, 0, _item(METRIC_LABELS[m], wording.METRIC_TEXT[m]))
+            t.setItem(2 * i, 1, _item(wording.format_value(rec["value"])))
             st = _item(status, wording.status_sentence(status) + "\n\nevidence:\n" +
                        json.dumps(rec.get("evidence", {}), indent=1)[:2000])
             st.setBackground(QtGui.QBrush(QtGui.QColor(wording.status_color(status))))
             st.setForeground(QtGui.QBrush(QtGui.QColor("white")))
-            t.setItem(i, 2, st)
+            t.setItem(2 * i, 2, st)
             reason = rec.get("reason") or ""
-            t.setItem(i, 3, _item(wording.status_sentence(status) + (" \u2014 " + reason if reason else ""),
-                                  reason))
+            full = wording.status_sentence(status) + (" \u2014 " + reason if reason else "")
+            if first_said.get(full):  # the same sentence again: named once, pointed to after
+                why = QtWidgets.QLabel("%s: as for %s." % (status, first_said[full]))
+                why.setToolTip(full)
+            else:
+                first_said[full] = METRIC_LABELS[m]
+                why = QtWidgets.QLabel(full)
+                why.setToolTip(reason)
+            why.setWordWrap(True)
+            why.setTextFormat(QtCore.Qt.PlainText)
+            why.setContentsMargins(4, 1, 4, 1)
+            t.setSpan(2 * i + 1, 0, 1, 3)
+            t.setCellWidget(2 * i + 1, 0, why)
             self.rows.append({"metric": m, "value": rec["value"], "status": status, "reason": reason,
                               "color": wording.status_color(status)})
-        t.resizeColumnsToContents()
-        # the reason wraps inside the panel's width, in a column wide enough for a phrase
         t.setWordWrap(True)
         header = t.horizontalHeader()
-        header.setSectionResizeMode(3, QtWidgets.QHeaderView.Stretch)
+        fm = t.fontMetrics()
+        for j in (0, 1):  # metric and value whole; the status (named again beneath) takes the rest
+            texts = [t.horizontalHeaderItem(j).text()] + [t.item(2 * i, j).text() for i in range(len(METRICS))]
+            header.setSectionResizeMode(j, QtWidgets.QHeaderView.Fixed)
+            t.setColumnWidth(j, max(fm.horizontalAdvance(x) for x in texts) + 2 * fm.averageCharWidth())
+        header.setSectionResizeMode(2, QtWidgets.QHeaderView.Stretch)
         t.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
-        phrase = REASON_CHARS * t.fontMetrics().averageCharWidth()
-        t.setMinimumWidth(sum(t.columnWidth(j) for j in range(3)) + phrase + 2 * t.frameWidth() + 4)
+        t.setMinimumWidth(REASON_CHARS * t.fontMetrics().averageCharWidth() + 2 * t.frameWidth())
         self.signature_table = t
         header.sectionResized.connect(lambda *args: self._fit_rows())
         self._fit_rows()
@@ -286,6 +313,7 @@ class ValidityPanel(CloseOnlyPanel):
         inp, sw, prov = d.get("input", {}), d.get("software", {}), d.get("provenance", {})
         box = QtWidgets.QGroupBox("Where these numbers come from")
         form = QtWidgets.QFormLayout(box)
+        form.setRowWrapPolicy(QtWidgets.QFormLayout.WrapAllRows)  # each value under its name, full width
         units = prov.get("units")
         rows = [
             ("backend", "%s (%s)" % (self.obj.Backend, "native surface integrals" if self.obj.Representation == "brep"
@@ -309,12 +337,17 @@ class ValidityPanel(CloseOnlyPanel):
         self.provenance_rows = rows
         for k, v in rows:
             text = str(v)
-            if k == "sha256" and len(text) == 64:  # a hex digest does not wrap: two halves
-                text = text[:32] + "\n" + text[32:]
+            tip = None
+            if k == "sha256" and len(text) == 64:  # a hex digest does not wrap: four lines of 16
+                tip, text = text, "\n".join(text[i:i + 16] for i in range(0, 64, 16))
+            if k == "file":  # a path may wrap after each folder
+                tip, text = text, text.replace("/", "/\u200b").replace("\\", "\\\u200b")
             lab = QtWidgets.QLabel(text)
+            if tip:
+                lab.setToolTip(tip)
             lab.setWordWrap(True)
             lab.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
-            form.addRow(k, lab)
+            form.addRow("<b>%s</b>" % k, lab)
         return box
 
     def _buttons(self):
