@@ -126,15 +126,16 @@ class AnalyzePanel:
         g.addWidget(self.method_label, 1, 0, 1, 3)
         g.addWidget(self.whole_note, 2, 0, 1, 3)
         g.addWidget(self.whole_button, 3, 0, 1, 3)
-        g.addWidget(self.explicit_radio, 4, 0)
-        g.addWidget(self.lref_edit, 4, 1)
-        g.addWidget(self.lref_unit, 4, 2)
+        g.addWidget(self.explicit_radio, 4, 0, 1, 3)  # the value beneath: the box fits a narrow task view
+        g.addWidget(self.lref_edit, 5, 0, 1, 2)
+        g.addWidget(self.lref_unit, 5, 2)
         lay.addWidget(box)
 
     def _add_tolerances(self, lay, d):
         """The class tolerances h_f, k_f (tau_H = h_f / L_ref, tau_K = k_f / L_ref^2)."""
         box = QtWidgets.QGroupBox("Curvature-class tolerances")
         f = QtWidgets.QFormLayout(box)
+        f.setRowWrapPolicy(QtWidgets.QFormLayout.WrapLongRows)
         self.hf_edit = _float_edit(d["h_f"], "dimensionless mean-curvature tolerance; tau_H = h_f / L_ref")
         self.kf_edit = _float_edit(d["k_f"], "dimensionless Gaussian-curvature tolerance; tau_K = k_f / L_ref^2")
         f.addRow("h_f", self.hf_edit)
@@ -143,8 +144,9 @@ class AnalyzePanel:
 
     def _add_planar_choice(self, lay):
         """Leave out planar faces (deck, transom), naming them."""
-        self.planar_check = QtWidgets.QCheckBox("Leave out planar faces (deck, transom)")
-        self.planar_check.setToolTip("faces that lie in a plane are not assessed; the result records them")
+        self.planar_check = QtWidgets.QCheckBox("Leave out planar faces")
+        self.planar_check.setToolTip("faces that lie in a plane (deck, transom) are not assessed; "
+                                     "the result records them")
         self.planar = [planar_faces(o.Shape, f) if hasattr(o, "Shape") else [] for o, f in self.sources]
         n_planar = sum(len(p) for p in self.planar)
         self.planar_label = QtWidgets.QLabel()
@@ -163,6 +165,7 @@ class AnalyzePanel:
         self.advanced.setChecked(False)
         inner = QtWidgets.QWidget()
         f = QtWidgets.QFormLayout(inner)
+        f.setRowWrapPolicy(QtWidgets.QFormLayout.WrapLongRows)  # a label above its field when narrow
         self.order_spin = QtWidgets.QSpinBox()
         self.order_spin.setRange(1, 30)
         self.order_spin.setValue(int(d["order"]))

@@ -340,8 +340,7 @@ def _():
     FreeCADGui.runCommand("HullProd_ShowDevelopability")
     p = selftest.opened_validity_panel(a)
     process(100)
-    t = p.signature_table
-    cells = [[t.item(i, j).text() for j in range(t.columnCount())] for i in range(t.rowCount())]
+    cells = p.signature_cells()
     copied = p.copy_json()
     clip = QtWidgets.QApplication.clipboard().text()
     p.detail_button.setChecked(True)
@@ -662,9 +661,14 @@ def render_clock():
 
 
 def open_hull(fname, docname):
+    """A shared BRep hull as a Part feature in a new document (None when absent)."""
+    return open_path(os.path.join(SHARED, "brep", fname), docname) if SHARED else None
+
+
+def open_path(path, docname):
+    """The BRep file at path as a Part feature in a new document (None when absent)."""
     import Part
-    path = os.path.join(SHARED, "brep", fname)
-    if not (SHARED and os.path.isfile(path)):
+    if not os.path.isfile(path):
         return None
     doc = FreeCAD.newDocument(docname)
     src = doc.addObject("Part::Feature", docname)
@@ -766,6 +770,12 @@ def cli_seconds(path):
     return wall, r.returncode, (r.stderr.strip().splitlines() or [""])[-1], info
 
 
+#: gui_vs_cli's hulls and runs: shared hulls by name, or absolute paths
+#: (HULLPROD_GUI_VS_CLI, a JSON list of [file, runs]; bench/gui_vs_cli.py).
+TIMED_HULLS = json.loads(os.environ.get("HULLPROD_GUI_VS_CLI") or "null") or [
+    ["dtmb5415_half_overture.igs", 3], ["kcs_full_closed_ohp.iges", 1], ["fcship_half_wavebem.iges", 1]]
+
+
 @step("gui_vs_cli")
 def _():
     """GUI time of Analyze (OK pressed until the analysis is made and coloured) against
@@ -779,15 +789,16 @@ def _():
     wait_for(lambda: False, 3)
     own_after, idle_wall = resource.getrusage(resource.RUSAGE_SELF), time.perf_counter() - t
     idle = (own_after.ru_utime - own.ru_utime + own_after.ru_stime - own.ru_stime) / idle_wall
-    for fname, runs in (("dtmb5415_half_overture.igs", 3), ("kcs_full_closed_ohp.iges", 1),
-                        ("fcship_half_wavebem.iges", 1)):
-        src = open_hull(fname, fname.split("_")[0])
+    for fname, runs in TIMED_HULLS:
+        path = fname if os.path.isabs(fname) else os.path.join(SHARED, "brep", fname)
+        src = open_path(path, "timed")
         if src is None:
             out[fname] = {"skipped": "public hulls not present"}
             continue
-        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None, "idle_cpu_share": idle}
+        rec = {"seconds": [], "cli_seconds": [], "errors": [], "cli_error": None, "idle_cpu_share": idle,
+               "faces": len(src.Shape.Faces)}
         for _ in range(runs):
-            seconds, code, last, info = cli_seconds(os.path.join(SHARED, "brep", fname))
+            seconds, code, last, info = cli_seconds(path)
             if code != 0:
                 rec["cli_error"] = "exit %d: %s" % (code, last)
             rec["cli_seconds"].append(seconds)
@@ -1315,6 +1326,33 @@ def clipped_widgets(panel):
             and c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x() > right + 1]
 
 
+def scrolls_sideways(panel):
+    """Whether the scroll area holding panel (the task view) shows a horizontal scroll bar;
+    if it does, the shown widgets whose smallest width exceeds the area's visible width."""
+    w = panel.parentWidget()
+    while w is not None and not isinstance(w, QtWidgets.QScrollArea):
+        w = w.parentWidget()
+    if w is None or not w.horizontalScrollBar().isVisible():
+        return False
+    width = w.viewport().width()
+    wide = [c for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible() and c.minimumSizeHint().width() > width]
+    return ["%s(%s) %d > %d" % (type(c).__name__, c.objectName() or getattr(c, "text", getattr(c, "title", str))()[:40],
+                                c.minimumSizeHint().width(), width)
+            for c in wide if not any(o is not c and c.isAncestorOf(o) for o in wide)] or ancestors_widths(panel, w)
+
+
+def ancestors_widths(panel, area):
+    """'class min/width' of panel and its parents up to the scroll area (what needs the width)."""
+    out, c = [], panel
+    while c is not None and c is not area:
+        out.append("%s %d/%d" % (type(c).__name__, c.minimumSizeHint().width(), c.width()))
+        c = c.parentWidget()
+    kids = sorted((c for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible()),
+                  key=lambda c: -c.minimumSizeHint().width())[:4]
+    return out + ["widest: %s(%s) %d" % (type(c).__name__, c.objectName() or getattr(c, "text", getattr(
+        c, "title", str))()[:40], c.minimumSizeHint().width()) for c in kids]
+
+
 @step("panels_fit_and_speak_plainly")
 def _():
     """The Analyze, validity, probe and compare panels at 1280x720 and 1600x1000 with the
@@ -1348,14 +1386,16 @@ def _():
         p.advanced.setChecked(True)
         process(100)
         rec["analyze"] = clipped_widgets(p.form)
+        rec["analyze_scrolls_sideways"] = scrolls_sideways(p.form)
         texts += shown_texts(p.form)
         window_shot("panel_fit_analyze_%dx%d" % (w, h), p.form)
         FreeCADGui.Control.closeDialog()
         vpanel = validity_panel.show_validity_panel(a)
         process(200)
         rec["validity"] = clipped_widgets(vpanel.form)
+        rec["validity_scrolls_sideways"] = scrolls_sideways(vpanel.form)
         t = vpanel.signature_table
-        rec["reason_chars"] = t.columnWidth(3) // max(1, t.fontMetrics().averageCharWidth())
+        rec["reason_chars"] = t.viewport().width() // max(1, t.fontMetrics().averageCharWidth())
         vpanel.detail_button.setChecked(True)
         process(50)
         texts += shown_texts(vpanel.form)
