@@ -158,7 +158,7 @@ class ValidityPanel(CloseOnlyPanel):
             t.setColumnWidth(j, max(fm.horizontalAdvance(x) for x in texts) + 2 * fm.averageCharWidth())
         header.setSectionResizeMode(2, QtWidgets.QHeaderView.Stretch)
         t.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
-        t.setMinimumWidth(REASON_CHARS * t.fontMetrics().averageCharWidth() + 2 * t.frameWidth())
+        t.setMinimumWidth(REASON_CHARS * fm.averageCharWidth() + 2 * t.frameWidth())
         self.signature_table = t
         header.sectionResized.connect(lambda *args: self._fit_rows())
         self._fit_rows()

@@ -1309,18 +1309,28 @@ def shown_texts(root):
     return [t for t in out if t]
 
 
+def scroll_area_of(panel):
+    """The scroll area holding panel (the task view), or None."""
+    w = panel.parentWidget()
+    while w is not None and not isinstance(w, QtWidgets.QScrollArea):
+        w = w.parentWidget()
+    return w
+
+
+def widget_name(c):
+    """A shown widget's object name, else the start of its text or title."""
+    return c.objectName() or getattr(c, "text", getattr(c, "title", str))()[:40]
+
+
 def clipped_widgets(panel):
     """Shown widgets of panel whose right edge lies beyond the visible width of the scroll
     area holding the panel (the task view), when that area shows no horizontal scroll bar."""
-    area, w = None, panel.parentWidget()
-    while w is not None and area is None:
-        area = w if isinstance(w, QtWidgets.QScrollArea) else None
-        w = w.parentWidget()
+    area = scroll_area_of(panel)
     if area is None or area.horizontalScrollBar().isVisible():
         return []
     vp = area.viewport()
     right = vp.mapToGlobal(QtCore.QPoint(vp.width(), 0)).x()
-    return ["%s(%s) %d > %d" % (type(c).__name__, c.objectName() or getattr(c, "text", lambda: "")()[:30],
+    return ["%s(%s) %d > %d" % (type(c).__name__, widget_name(c),
                                 c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x(), right)
             for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible()
             and c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x() > right + 1]
@@ -1329,15 +1339,12 @@ def clipped_widgets(panel):
 def scrolls_sideways(panel):
     """Whether the scroll area holding panel (the task view) shows a horizontal scroll bar;
     if it does, the shown widgets whose smallest width exceeds the area's visible width."""
-    w = panel.parentWidget()
-    while w is not None and not isinstance(w, QtWidgets.QScrollArea):
-        w = w.parentWidget()
+    w = scroll_area_of(panel)
     if w is None or not w.horizontalScrollBar().isVisible():
         return False
     width = w.viewport().width()
     wide = [c for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible() and c.minimumSizeHint().width() > width]
-    return ["%s(%s) %d > %d" % (type(c).__name__, c.objectName() or getattr(c, "text", getattr(c, "title", str))()[:40],
-                                c.minimumSizeHint().width(), width)
+    return ["%s(%s) %d > %d" % (type(c).__name__, widget_name(c), c.minimumSizeHint().width(), width)
             for c in wide if not any(o is not c and c.isAncestorOf(o) for o in wide)] or ancestors_widths(panel, w)
 
 
@@ -1349,8 +1356,7 @@ def ancestors_widths(panel, area):
         c = c.parentWidget()
     kids = sorted((c for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible()),
                   key=lambda c: -c.minimumSizeHint().width())[:4]
-    return out + ["widest: %s(%s) %d" % (type(c).__name__, c.objectName() or getattr(c, "text", getattr(
-        c, "title", str))()[:40], c.minimumSizeHint().width()) for c in kids]
+    return out + ["widest: %s(%s) %d" % (type(c).__name__, widget_name(c), c.minimumSizeHint().width()) for c in kids]
 
 
 @step("panels_fit_and_speak_plainly")
