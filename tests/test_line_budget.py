@@ -50,3 +50,24 @@ def test_plate_within_its_tolerance_is_unchanged_by_the_budget():
     assert r.converged["int_abs_K"] and not r.budget_spent
     assert abs(r.values["int_abs_K"] - EXACT_ABS_K) <= r.tolerances["int_abs_K"]
     assert r.values["A_single"] == pytest.approx(1.0, abs=1e-10)
+
+
+def test_lines_on_interpolants_take_one_pass_when_the_budget_does_not_bind(monkeypatch):
+    # the last level's cells on their interpolants cost no field points: one pass, not chunks
+    from hullprod_wb.brep.cubature import driver
+
+    passes = []
+    lines_of = driver.Integration._lines_of
+
+    def counted(self, sub, *args, **kwargs):
+        passes.append(sub.size)
+        return lines_of(self, sub, *args, **kwargs)
+
+    monkeypatch.setattr(driver.Integration, "_lines_of", counted)
+    free = integrate(SQUARE, near_flat_plate, TAU_H, TAU_K, rtol=1e-4, depth_limit=30)
+    n_free = len(passes)
+    passes.clear()
+    r = integrate(SQUARE, near_flat_plate, TAU_H, TAU_K, rtol=1e-4, depth_limit=30, point_budget=8_000_000)
+    assert not r.budget_spent and r.n_points == free.n_points
+    assert len(passes) == n_free
+    assert r.values["int_abs_K"] == pytest.approx(free.values["int_abs_K"], rel=1e-12)

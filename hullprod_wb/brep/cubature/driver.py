@@ -90,6 +90,7 @@ class Integration:
         self.pending = None  # units left unaccepted at the last level
         self.budget_spent = False  # refinement stopped by the point budget (refine_to)
         self.point_budget = None if point_budget is None else int(point_budget)
+        self.field_lines = [0, 0]  # field points and units of the lines of the field so far
         self.active = self.evaluate(self.active, self._prefetched(0))
         if prefetch is not None:
             self.active = self.active.with_(row=np.arange(P))  # the first cell of each (_prefetched)
@@ -309,36 +310,54 @@ class Integration:
         return lined, split, charge
 
     def _lines_within_budget(self, sub, interp, lbudget, tol, unit, err, lined, split):
-        """The lines of the last level under a point budget, in chunks of the lined units sub,
-        largest error relative to tol first: the first 1/LINE_CHUNKS^2 of them, then as many
-        as the points left hold at LINE_MARGIN times the points a unit's lines took so far, at
-        most as many as were done (at most LINE_CHUNKS^2 chunks). The units not reached keep their Gauss sums and quadtree
-        estimates (|Q(cell) - sum of Q over its children|) and stay pending. Returns the units
-        on lines, those split and the bounds charged for K = 0, as _line_candidates."""
+        """The lines of the last level under a point budget. Units on their interpolants take
+        no field points: all in one pass. The units on lines of the field go largest error
+        relative to tol first, in chunks sized by the points left at LINE_MARGIN times the
+        points a unit's lines of the field cost (on this level once measured, before that on
+        the face's earlier levels, and for a face's first ones, 1/LINE_CHUNKS^2 of them), each
+        chunk at most as many units as are done (half of them from the earlier levels' cost
+        alone), at most LINE_CHUNKS^2 chunks. The units not reached keep their Gauss sums and
+        quadtree estimates (|Q(cell) - sum of Q over its children|) and stay pending. Returns
+        the units on lines, those split and the bounds charged for K = 0, as _line_candidates."""
         idx = np.nonzero(lined)[0]
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = np.nan_to_num(err[idx][:, LINE_Q] / tol[None, LINE_Q], nan=0.0, posinf=1e300).sum(1)
-        order = np.argsort(-rel, kind="stable")
+        free = interp.use
+        field = np.nonzero(~free)[0]
+        field = field[np.argsort(-rel[field], kind="stable")]
+        chunks = [np.nonzero(free)[0]] if free.any() else []
         charges = np.zeros(idx.size)
         err0 = err[idx].copy()
-        n_done, size, start = 0, max(1, idx.size // LINE_CHUNKS ** 2), self.f.n_points
-        for _ in range(LINE_CHUNKS * LINE_CHUNKS):
-            left = self.point_budget - self.f.n_points
-            if n_done:
-                size = min(n_done, int(left * n_done / (LINE_MARGIN * max(self.f.n_points - start, 1))))
-            if n_done == idx.size or left <= 0 or size < 1:
-                break
-            resolved, size = self.ls.resolve_zero, min(size, idx.size - n_done)
-            n_done += size
-            charges[order[n_done - size:n_done]] = self._chunk_lines(
-                order[n_done - size:n_done], idx, sub, interp, lbudget, err0, tol, unit, err, float(charges.sum()))
-            if self.ls.resolve_zero and not resolved and n_done > size:
-                # K = 0 resolved from this chunk on: the earlier chunks again, as in one pass
-                charges[order[:n_done - size]] = self._chunk_lines(order[:n_done - size], idx, sub, interp,
-                                                                   lbudget, err0, tol, unit, err, 0.0)
         done = np.zeros(idx.size, bool)
-        done[order[:n_done]] = True
-        if n_done < idx.size:
+        n_field, spent = 0, 0
+        for _ in range(LINE_CHUNKS * LINE_CHUNKS + 1):
+            if not chunks:
+                left = self.point_budget - self.f.n_points
+                cost = spent / n_field if n_field else self.field_line_cost()
+                if cost is None:
+                    size = max(1, field.size // LINE_CHUNKS ** 2)
+                else:  # a few units' cost says little of the rest's: at most double
+                    grow = n_field if n_field else field.size // 2
+                    size = min(int(left / (LINE_MARGIN * max(cost, 1.0))), max(1, grow))
+                size = min(size, field.size - n_field)
+                if left <= 0 or size < 1:
+                    break
+                chunks.append(field[n_field:n_field + size])
+            rows = chunks.pop()
+            resolved, before, p0 = self.ls.resolve_zero, done.copy(), self.f.n_points
+            charges[rows] = self._chunk_lines(rows, idx, sub, interp, lbudget, err0, tol, unit, err,
+                                              float(charges[done].sum()))
+            done[rows] = True
+            if not free[rows[0]]:
+                n_field += rows.size
+                spent += self.f.n_points - p0
+            if self.ls.resolve_zero and not resolved and before.any():
+                # K = 0 resolved from this chunk on: the earlier chunks again, as in one pass
+                again = np.nonzero(before)[0]
+                charges[again] = self._chunk_lines(again, idx, sub, interp, lbudget, err0, tol, unit, err, 0.0)
+            if n_field == field.size:
+                break
+        if not done.all():
             self.budget_spent = True
         lined = np.zeros(unit.size, bool)
         lined[idx[done]] = True
@@ -363,6 +382,7 @@ class Integration:
         those charged earlier on this level) would take too much of the K integrals'
         tolerance. Returns the bounds charged (k,)."""
         mc = turn_cells(self.ls, sub, interp)
+        p0 = self.f.n_points
         val, lerr, _, charge = integrate_lines(self.ls, mc, lbudget)
         if not self.ls.resolve_zero and np.any((self.zero_charge + earlier + charge.sum()) * ZERO_CHARGE_PARTS
                                                > ZERO_CHARGE_SHARE * tol[K_INTEGRALS]):
@@ -382,7 +402,14 @@ class Integration:
         lerr[:, LINE_K] = np.maximum(lerr[:, LINE_K], gap)
         unit.Q[lined, LINE_Q] = val
         err[lined, LINE_Q] = lerr
+        self.field_lines[0] += self.f.n_points - p0
+        self.field_lines[1] += int(np.count_nonzero(~interp.use))
         return charge
+
+    def field_line_cost(self):
+        """Field points a unit's lines of the field took on this face so far, None before any."""
+        points, units = self.field_lines
+        return points / units if units else None
 
     def _accept_level(self, unit, err, accept, lined, charge, budget, last, ch):
         """Accept the candidates again, greedily, on every quantity with the lines' errors

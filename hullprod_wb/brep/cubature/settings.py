@@ -114,9 +114,10 @@ STALL_RATIO = 0.45
 
 MAX_PIECES = 64
 
-#: Under a point budget, the last level's lines are computed in chunks, largest error first:
-#: 1/LINE_CHUNKS^2 of the mixed cells, then as many as the points left hold (at LINE_MARGIN
-#: times the points a cell's lines took so far; Integration._lines_within_budget).
+#: Under a point budget, the last level's lines of the field are computed in chunks, largest
+#: error first, sized by the points left at LINE_MARGIN times a cell's measured cost and at
+#: most doubling; a face's first chunk is 1/LINE_CHUNKS^2 of them
+#: (Integration._lines_within_budget).
 LINE_CHUNKS = 8
 #: Safety on the cost of a cell's lines when a chunk is sized (the cost varies between cells).
 LINE_MARGIN = 2.0
