@@ -568,6 +568,11 @@ def test_panels_fit_the_default_combo_view(gui, size):
     assert rec["reason_chars"] >= 24, rec
 
 
+def test_one_colour_bar_when_a_macro_adds_an_analysis(gui):
+    rec = step(gui, "panels_fit_and_speak_plainly")
+    assert rec["legends_on"] == ["FitHull_analysis_2"]
+
+
 def test_no_paper_label_in_what_the_gui_shows(gui):
     rec = step(gui, "panels_fit_and_speak_plainly")
     assert rec["texts_checked"] > 100

@@ -194,8 +194,21 @@ class ViewProviderHullProdAnalysis:
             self.recolor()
 
     def onChanged(self, vobj, prop):
+        if prop == "ShowLegend" and vobj.ShowLegend:
+            self._sole_legend(vobj)
         if prop in ("ColorMap", "ShowLegend", "ScaleRange", "ScaleType", "ScaleMin", "ScaleMax"):
             self.recolor()
+
+    @staticmethod
+    def _sole_legend(vobj):
+        """A colour bar turned on (a new analysis, a macro) turns off the others of its
+        document: bars drawn at the same place of the view would overlap."""
+        obj = getattr(vobj, "Object", None)
+        doc = getattr(obj, "Document", None)
+        if doc is None or getattr(doc, "Restoring", False):
+            return
+        from .legend import legend_to
+        legend_to([obj], doc)
 
     def getDisplayModes(self, vobj):
         return [DISPLAY_MODE]

@@ -1333,7 +1333,23 @@ def clipped_widgets(panel):
     return ["%s(%s) %d > %d" % (type(c).__name__, widget_name(c),
                                 c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x(), right)
             for c in panel.findChildren(QtWidgets.QWidget) if c.isVisible()
-            and c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x() > right + 1]
+            and c.mapToGlobal(QtCore.QPoint(c.width(), 0)).x() > right + 1] + clipped_titles(panel)
+
+
+def clipped_titles(panel):
+    """Shown group boxes whose title (with its check box) is wider than the box: Qt cuts
+    the title's end off without a sign."""
+    out = []
+    for box in panel.findChildren(QtWidgets.QGroupBox):
+        if not box.isVisible() or not box.title():
+            continue
+        opt = QtWidgets.QStyleOptionGroupBox()
+        box.initStyleOption(opt)
+        label = box.style().subControlRect(QtWidgets.QStyle.CC_GroupBox, opt, QtWidgets.QStyle.SC_GroupBoxLabel, box)
+        need = label.x() + label.width()
+        if need > box.width():
+            out.append("QGroupBox title(%s) %d > %d" % (box.title()[:40], need, box.width()))
+    return out
 
 
 def scrolls_sideways(panel):
@@ -1374,6 +1390,8 @@ def _():
     mw = FreeCADGui.getMainWindow()
     combo = [d for d in mw.findChildren(QtWidgets.QDockWidget) if d.objectName() in ("Combo View", "ComboView")]
     out, texts = {}, []
+    # a second analysis made by a macro takes the colour bar; the first one's is turned off
+    out["legends_on"] = [o.Label for o in (a, b) if o.ViewObject.ShowLegend]
     for w, h in ((1280, 720), (1600, 1000)):
         mw.showNormal()
         mw.resize(w, h)
