@@ -160,7 +160,8 @@ class AnalyzePanel:
 
     def _add_quadrature(self, lay, d):
         """Advanced BRep quadrature settings (order, tolerance, protocol, budget, depths)."""
-        self.advanced = QtWidgets.QGroupBox("Advanced: BRep quadrature")
+        self.advanced = QtWidgets.QGroupBox("BRep quadrature")
+        self.advanced.setToolTip("advanced: tick to set the quadrature of BRep faces yourself")
         self.advanced.setCheckable(True)
         self.advanced.setChecked(False)
         inner = QtWidgets.QWidget()
