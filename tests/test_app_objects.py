@@ -314,6 +314,14 @@ def test_locate_triangle_and_interpolation():
     r = interpolate_fields(f, (0.75, 0.25, 0.0))
     assert r["K"] == pytest.approx(0.25 * 1 + 0.5 * 2 + 0.25 * 3, rel=1e-12)
     assert r["q_D"] == pytest.approx(r["K"] * 4.0, rel=1e-12) and r["class_id"] == 2 and r["exact"] is False
+    # a corner without valid curvature: no value, principal curvatures included, and why
+    extra = {"k1": np.full(4, 2.0), "k2": np.full(4, 0.5)}
+    g = DistributedFields(P, T, K, np.ones(4), np.array([True, False, True, True]), lref=2.0, tau_H=1e-4,
+                          tau_K=1e-4, extra=extra)
+    r = interpolate_fields(g, (0.75, 0.25, 0.0))
+    assert all(np.isnan(r[k]) for k in ("K", "H", "k1", "k2", "q_D")) and r["class_id"] == -1
+    assert "without valid curvature" in r["method"]
+    assert interpolate_fields(g, (0.2, 0.7, 0.0))["k1"] == pytest.approx(2.0, rel=1e-12)
 
 
 def test_probe_mesh_and_brep(doc):

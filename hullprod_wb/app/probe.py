@@ -60,7 +60,9 @@ def interpolate_fields(fields, p):
     ok = bool(np.all(np.asarray(fields.valid)[ids]))
     K = float(bary @ np.asarray(fields.K)[ids]) if ok else float("nan")
     H = float(bary @ np.asarray(fields.H)[ids]) if ok else float("nan")
-    if "k1" in fields.extra and "k2" in fields.extra:
+    if not ok:  # a corner without valid curvature (boundary, non-manifold): no value at all
+        k1 = k2 = float("nan")
+    elif "k1" in fields.extra and "k2" in fields.extra:
         k1 = float(bary @ np.asarray(fields.extra["k1"])[ids])
         k2 = float(bary @ np.asarray(fields.extra["k2"])[ids])
     else:
@@ -69,7 +71,9 @@ def interpolate_fields(fields, p):
     cls = int(classify(np.array([K]), np.array([H]), fields.tau_H, fields.tau_K)[0])
     return {"K": K, "H": H, "k1": k1, "k2": k2, "q_D": abs(K) * fields.lref ** 2 if ok else float("nan"),
             "class_id": cls, "triangle": tri, "barycentric": [float(x) for x in bary], "distance": dist,
-            "exact": False, "method": "interpolated: barycentric in display triangle %d of the mesh fields" % tri}
+            "exact": False, "method": ("interpolated: barycentric in display triangle %d of the mesh fields" % tri
+                                       if ok else "display triangle %d of the mesh fields has a corner "
+                                       "without valid curvature (boundary or non-manifold)" % tri)}
 
 
 def probe_analysis(obj, point):
