@@ -444,7 +444,8 @@ def _():
     FreeCADGui.runCommand("HullProd_Probe")
     from hullprod_wb.app import analysis_fields
     f = analysis_fields(a)
-    tri = f.triangles[len(f.triangles) // 2]
+    inner = np.nonzero(np.asarray(f.valid)[f.triangles].all(axis=1))[0]  # corners with valid curvature
+    tri = f.triangles[inner[inner.size // 2]]
     r = probe.ACTIVE.probe(a, f.points[tri].mean(axis=0))
     FreeCADGui.Control.closeDialog()
     return {"status": a.Status, "representation": a.Representation, "advanced_enabled": adv,
