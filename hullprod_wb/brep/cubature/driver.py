@@ -316,47 +316,50 @@ class Integration:
         points a unit's lines of the field cost (on this level once measured, before that on
         the face's earlier levels, and for a face's first ones, 1/LINE_CHUNKS^2 of them), each
         chunk at most as many units as are done (half of them from the earlier levels' cost
-        alone), at most LINE_CHUNKS^2 chunks. The units not reached keep their Gauss sums and
-        quadtree estimates (|Q(cell) - sum of Q over its children|) and stay pending. Returns
-        the units on lines, those split and the bounds charged for K = 0, as _line_candidates."""
+        alone), at most LINE_CHUNKS^2 of these chunks. The units not reached keep their Gauss
+        sums and quadtree estimates (|Q(cell) - sum of Q over its children|) and stay pending.
+        Returns the units on lines, those split and the bounds charged for K = 0, as
+        _line_candidates."""
         idx = np.nonzero(lined)[0]
         with np.errstate(divide="ignore", invalid="ignore"):
             rel = np.nan_to_num(err[idx][:, LINE_Q] / tol[None, LINE_Q], nan=0.0, posinf=1e300).sum(1)
-        free = interp.use
-        field = np.nonzero(~free)[0]
+        field = np.nonzero(~interp.use)[0]
         field = field[np.argsort(-rel[field], kind="stable")]
-        chunks = [np.nonzero(free)[0]] if free.any() else []
         charges = np.zeros(idx.size)
         err0 = err[idx].copy()
         done = np.zeros(idx.size, bool)
-        n_field, spent = 0, 0
-        for _ in range(LINE_CHUNKS * LINE_CHUNKS + 1):
-            if not chunks:
-                left = self.point_budget - self.f.n_points
-                cost = spent / n_field if n_field else self.field_line_cost()
-                if cost is None:
-                    size = max(1, field.size // LINE_CHUNKS ** 2)
-                else:  # a few units' cost says little of the rest's: at most double
-                    grow = n_field if n_field else field.size // 2
-                    size = min(int(left / (LINE_MARGIN * max(cost, 1.0))), max(1, grow))
-                size = min(size, field.size - n_field)
-                if left <= 0 or size < 1:
-                    break
-                chunks.append(field[n_field:n_field + size])
-            rows = chunks.pop()
+
+        def chunk(rows):
+            """Lines of the units rows; returns the field points they took."""
             resolved, before, p0 = self.ls.resolve_zero, done.copy(), self.f.n_points
             charges[rows] = self._chunk_lines(rows, idx, sub, interp, lbudget, err0, tol, unit, err,
                                               float(charges[done].sum()))
             done[rows] = True
-            if not free[rows[0]]:
-                n_field += rows.size
-                spent += self.f.n_points - p0
+            points = self.f.n_points - p0
             if self.ls.resolve_zero and not resolved and before.any():
                 # K = 0 resolved from this chunk on: the earlier chunks again, as in one pass
                 again = np.nonzero(before)[0]
                 charges[again] = self._chunk_lines(again, idx, sub, interp, lbudget, err0, tol, unit, err, 0.0)
+            return points
+
+        if interp.use.any():
+            chunk(np.nonzero(interp.use)[0])
+        n_field, spent = 0, 0
+        for _ in range(LINE_CHUNKS * LINE_CHUNKS):
             if n_field == field.size:
                 break
+            left = self.point_budget - self.f.n_points
+            cost = spent / n_field if n_field else self.field_line_cost()
+            if cost is None:
+                size = max(1, field.size // LINE_CHUNKS ** 2)
+            else:  # a few units' cost says little of the rest's: at most double
+                grow = n_field if n_field else field.size // 2
+                size = min(int(left / (LINE_MARGIN * max(cost, 1.0))), max(1, grow))
+            size = min(size, field.size - n_field)
+            if left <= 0 or size < 1:
+                break
+            spent += chunk(field[n_field:n_field + size])
+            n_field += size
         if not done.all():
             self.budget_spent = True
         lined = np.zeros(unit.size, bool)
