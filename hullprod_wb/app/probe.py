@@ -58,22 +58,26 @@ def interpolate_fields(fields, p):
     tri, bary, dist = locate_triangle(fields.points, fields.triangles, p)
     ids = np.asarray(fields.triangles[tri], np.int64)
     ok = bool(np.all(np.asarray(fields.valid)[ids]))
-    K = float(bary @ np.asarray(fields.K)[ids]) if ok else float("nan")
-    H = float(bary @ np.asarray(fields.H)[ids]) if ok else float("nan")
+
+    def at(values):
+        return float(bary @ np.asarray(values)[ids])
+
     if not ok:  # a corner without valid curvature (boundary, non-manifold): no value at all
-        k1 = k2 = float("nan")
-    elif "k1" in fields.extra and "k2" in fields.extra:
-        k1 = float(bary @ np.asarray(fields.extra["k1"])[ids])
-        k2 = float(bary @ np.asarray(fields.extra["k2"])[ids])
+        K = H = k1 = k2 = float("nan")
+        how = "display triangle %d of the mesh fields has a corner without valid curvature " \
+              "(boundary or non-manifold)" % tri
     else:
-        r = np.sqrt(max(H * H - K, 0.0)) if ok else float("nan")
-        k1, k2 = H + r, H - r
+        K, H = at(fields.K), at(fields.H)
+        if "k1" in fields.extra and "k2" in fields.extra:
+            k1, k2 = at(fields.extra["k1"]), at(fields.extra["k2"])
+        else:
+            r = np.sqrt(max(H * H - K, 0.0))
+            k1, k2 = H + r, H - r
+        how = "interpolated: barycentric in display triangle %d of the mesh fields" % tri
     cls = int(classify(np.array([K]), np.array([H]), fields.tau_H, fields.tau_K)[0])
-    return {"K": K, "H": H, "k1": k1, "k2": k2, "q_D": abs(K) * fields.lref ** 2 if ok else float("nan"),
+    return {"K": K, "H": H, "k1": k1, "k2": k2, "q_D": abs(K) * fields.lref ** 2,  # NaN where K is
             "class_id": cls, "triangle": tri, "barycentric": [float(x) for x in bary], "distance": dist,
-            "exact": False, "method": ("interpolated: barycentric in display triangle %d of the mesh fields" % tri
-                                       if ok else "display triangle %d of the mesh fields has a corner "
-                                       "without valid curvature (boundary or non-manifold)" % tri)}
+            "exact": False, "method": how}
 
 
 def probe_analysis(obj, point):
