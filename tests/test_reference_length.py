@@ -90,6 +90,19 @@ def test_no_area_falls_back_to_the_points():
     assert rl.mode == "explicit" and "check the units" in rl.warning
 
 
+def test_the_automatic_length_is_stated_to_six_digits_and_stays_under_small_edits():
+    P = np.array([[0.0, 0, 0], [123.4567891, 0, 0], [0.0, 2.0, 0], [123.4567891, 2.0, 0]])
+    T = np.array([[0, 1, 2], [1, 3, 2]])
+    rl = resolve_reference_length(P, T)
+    assert principal_axis_span(P, T) == pytest.approx(123.4567891, rel=1e-12)
+    assert rl.value == rl.automatic_value == 123.457 and "6 significant digits" in rl.method
+    Q = P.copy()
+    Q[1, 1] += 1e-6  # a corner moved: the span changes in its tenth digit, the stated length not
+    assert principal_axis_span(Q, T) != principal_axis_span(P, T)
+    assert resolve_reference_length(Q, T).value == rl.value
+    assert resolve_reference_length(P, T, explicit=123.4567891).value == 123.4567891  # a given L_ref as given
+
+
 @needs_freecad
 def test_a_filleted_box_has_one_reference_length_in_every_format(tmp_path):
     """The same shape written as STEP, IGES and BRep: its automatic L_ref is its length in

@@ -8,7 +8,7 @@ the run then reports as 'automatic'.
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.reference_length import AUTOMATIC_METHOD, principal_axis_span
+from ..core.reference_length import AUTOMATIC_METHOD, automatic_length
 
 #: Tessellation tolerance for the proposal, as a fraction of the bounding-box diagonal.
 TESSELLATION_FRACTION = 2.0e-3
@@ -46,4 +46,4 @@ def proposed_lref(source, faces=None):
     """dict(value, method, units) of the automatic L_ref proposal for source."""
     P, T = surface_samples(source, faces)
     units = "mm" if hasattr(source, "Shape") else "mesh units"
-    return {"value": principal_axis_span(P, T), "method": AUTOMATIC_METHOD, "units": units}
+    return {"value": automatic_length(P, T), "method": AUTOMATIC_METHOD, "units": units}

@@ -63,13 +63,13 @@ def brep_lref(path, faces):
     from ..brep.display import tessellation_samples
     from ..brep.reading.loading import load_brep
     from ..brep.reading.lref_samples import SAMPLE_DEFLECTION
-    from ..core.reference_length import principal_axis_span
+    from ..core.reference_length import automatic_length
     inp = load_brep(path, faces)
     size = inp.shape.BoundBox.DiagonalLength  # before anything is tessellated (provenance.shape_boxes)
 
     def span(chosen):
         s = tessellation_samples([f for _, f in chosen], SAMPLE_DEFLECTION * size)
-        return None if s is None else float(principal_axis_span(s["points"], s["triangles"], s["node_area"]))
+        return None if s is None else float(automatic_length(s["points"], s["triangles"], s["node_area"]))
     chosen = span(inp.faces)
     whole = chosen if faces is None else span(list(enumerate(inp.shape.Faces, 1)))
     return chosen, whole
@@ -79,11 +79,11 @@ def mesh_lref(path):
     """Automatic L_ref of a mesh .npz, by the mesh backend's method (core.reference_length
     on the prepared mesh)."""
     import numpy as np
-    from ..core.reference_length import principal_axis_span
+    from ..core.reference_length import automatic_length
     from ..mesh.backend import open_mesh
     data = np.load(path)
     mesh, _ = open_mesh((data["vertices"], data["faces"]))
-    value = float(principal_axis_span(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)))
+    value = float(automatic_length(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64)))
     return value, value
 
 

@@ -2,8 +2,11 @@
 
 The automatic length is the span of the surface along its first principal axis, computed
 from the exact area moments of a triangulation of it (a BRep's coarse tessellation, or
-the mesh itself). It approximates the overall length of the represented surface; for a
-hull it is close to, but not the same as, L_pp.
+the mesh itself), stated to AUTOMATIC_DIGITS significant digits. It approximates the overall
+length of the represented surface; for a hull it is close to, but not the same as, L_pp.
+A coarse tessellation does not give the span to more digits, and an edit that leaves the
+hull's length alone (a pole moved on the bilge) leaves the stated length alone too, so the
+faces it did not touch keep their thresholds and their stored results (brep.face_keys).
 """
 from dataclasses import dataclass
 
@@ -14,8 +17,11 @@ from .errors import InputError
 from .threads import blocks, default_threads, run_blocks
 from .thresholds import check_positive
 
+#: Significant digits of the automatic L_ref (a relative step of at most 5e-6: I_D moves by at
+#: most 1e-5 of itself, a tenth of the default tolerance).
+AUTOMATIC_DIGITS = 6
 AUTOMATIC_METHOD = ("principal-axis span: extent of the triangulated surface along the first principal axis of "
-                    "its area (exact area moments of the triangles)")
+                    "its area (exact area moments of the triangles), to %d significant digits" % AUTOMATIC_DIGITS)
 
 
 def principal_axis_span(points, triangles, node_area=None, triangle_area=None):
@@ -68,6 +74,11 @@ def principal_axis_span(points, triangles, node_area=None, triangle_area=None):
     return float(along.max() - along.min())
 
 
+def automatic_length(points, triangles, node_area=None, triangle_area=None):
+    """The automatic L_ref: principal_axis_span to AUTOMATIC_DIGITS significant digits."""
+    return float("%.*g" % (AUTOMATIC_DIGITS, principal_axis_span(points, triangles, node_area, triangle_area)))
+
+
 #: Triangles a block of the corner sums.
 BLOCK = 1 << 15
 
@@ -97,12 +108,12 @@ class ReferenceLength:
 
 def resolve_reference_length(points, triangles, node_area=None, explicit=None, units="", triangle_area=None):
     """Choose L_ref: the explicit value when given (checked > 0), else the automatic span
-    of the triangulated surface (principal_axis_span).
+    of the triangulated surface (automatic_length).
 
     When explicit, the automatic span is still computed and a warning is recorded if the
     ratio of the two lies outside [1/10, 10].
     """
-    auto = principal_axis_span(points, triangles, node_area, triangle_area)
+    auto = automatic_length(points, triangles, node_area, triangle_area)
     if auto <= 0:
         raise InputError("cannot derive a reference length: the surface has zero extent")
     if explicit is None:
