@@ -79,7 +79,10 @@ def test_a_sliver_unconverged_on_its_own_converges_under_the_global_budget():
 def test_face_budgets_follow_the_area_with_a_floor():
     opts = quadrature_options(point_budget=1_000_000)
     b = face_point_budgets(opts, np.array([0.9, 0.0999, 0.0001]))
-    assert b[0] == 900_000 and b[1] == 100_000 and b[2] == 100_000
+    # the share rounded down to a power of 2^(1/4): 0.9 -> 2^(-1/4)
+    assert b[0] == int(1_000_000 * 2 ** -0.25) and b[1] == 100_000 and b[2] == 100_000
+    assert face_point_budgets(opts, np.array([1.0])) == [1_000_000]
+    assert face_point_budgets(opts, np.array([0.5, 0.5])) == [500_000, 500_000]
     assert face_point_budgets(quadrature_options(protocol="paper"), np.array([1.0])) == [None]
     with pytest.raises(InputError):
         quadrature_options(protocol="fixed")
@@ -256,8 +259,12 @@ def test_disagreeing_refinements_qualify_a_metric_only_when_they_matter():
 def test_grown_budgets_give_the_points_left_by_error_share_or_four_times_the_budget():
     from hullprod_wb.brep.validity.budget import BUDGET_GROWTH, grown_budgets
     q = [SimpleNamespace(errors={"int_abs_K": e, "int_K_plus": 0.0, "int_K_minus": 0.0}) for e in (3.0, 1.0)]
-    # 8e6 points, 2e6 used: 6e6 left, shared 3:1
-    assert grown_budgets(q, [100_000, 100_000], 8_000_000, 2_000_000) == [4_500_000, 1_500_000]
+    # 8e6 points, 2e6 used: 6e6 left, shared 3:1 (4.5e6 and 1.5e6), each rounded down to the
+    # total times a power of 2^(1/4)
+    got = grown_budgets(q, [100_000, 100_000], 8_000_000, 2_000_000)
+    for g, want in zip(got, (4_500_000, 1_500_000)):
+        assert g <= want < g * 2 ** 0.25
+    assert got == [4_000_000, int(8_000_000 * 2 ** -2.5)]
     # nothing left: four times the budget
     assert grown_budgets(q, [100_000, 200_000], 1_000_000, 2_000_000) == [BUDGET_GROWTH * 100_000,
                                                                           BUDGET_GROWTH * 200_000]

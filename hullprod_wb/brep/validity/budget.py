@@ -1,6 +1,7 @@
 """The work and error budgets of a BRep assessment: the quadrature settings and protocols,
 each face's share of the field points, the faces refined again where the shape's error sits,
 and whether a face's two integrations agree within their estimates."""
+import math
 from dataclasses import asdict, dataclass, replace
 
 from ...core.errors import InputError
@@ -49,6 +50,10 @@ class QuadratureOptions:
 DEFAULT_QUADRATURE = QuadratureOptions()
 #: Smallest point budget of a face (slivers and small fillets get at least this many points).
 FACE_POINT_FLOOR = 100_000
+#: A face's point budget is the shape's times a power of 2^(1/BUDGET_STEPS) (its share rounded
+#: down to one): a small change of the shares (a face added, a patch split elsewhere) leaves the other faces' budgets, and so their
+#: results and their keys in the store (brep.face_keys), as they were.
+BUDGET_STEPS = 4
 #: Rounds of refinement of the faces that carry the shape's excess error (faces_to_refine),
 #: each with BUDGET_GROWTH times the points (or their error's share of the points left).
 BUDGET_ROUNDS = 2
@@ -90,16 +95,25 @@ def grown_budgets(faces, budgets, total, used):
     s = sum(err)
     share = [e / s for e in err] if s > 0 else [1.0 / len(faces)] * len(faces)
     left = max(total - used, 0)
-    return [max(BUDGET_GROWTH * b, int(left * w)) for b, w in zip(budgets, share)]
+    return [max(BUDGET_GROWTH * b, on_grid(total, left * w / total if total > 0 else 0.0))
+            for b, w in zip(budgets, share)]
+
+
+def on_grid(total, share):
+    """The points of a share (0 to 1) of total, the share rounded down to a power of
+    2^(1/BUDGET_STEPS) (an int)."""
+    if not share > 0:
+        return 0
+    return int(total * 2.0 ** (math.floor(BUDGET_STEPS * math.log2(min(share, 1.0)) + 1e-9) / BUDGET_STEPS))
 
 
 def face_point_budgets(opts, weights):
     """Point budget of each face (None: no limit, the paper's protocol): its share weights
-    (n,) of opts.point_budget (QuadratureOptions), at least FACE_POINT_FLOOR."""
+    (n,) of opts.point_budget (QuadratureOptions) on_grid, at least FACE_POINT_FLOOR."""
     if opts.paper or opts.point_budget is None:
         return [None] * len(weights)
     total = int(opts.point_budget)
-    return [max(min(FACE_POINT_FLOOR, total), int(total * w)) for w in weights]
+    return [max(min(FACE_POINT_FLOOR, total), on_grid(total, w)) for w in weights]
 
 
 def quadrature_options(order=None, rtol=None, max_depth=None, protocol=None, depth_limit=None,
