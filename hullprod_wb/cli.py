@@ -64,11 +64,17 @@ def add_common_options(p):
                    help="processes integrating the faces (or the patch groups of a face assessed "
                         "alone) in parallel (default: the available CPUs, or $HULLPROD_JOBS; the "
                         "values do not depend on it)")
+    c = p.add_argument_group("BRep faces' store")
+    c.add_argument("--cache", default=None, metavar="DIR",
+                   help="keep each face's result in DIR and take the unchanged faces from it (default: "
+                        "$HULLPROD_FACE_CACHE, else HullProd/faces in FreeCAD's user cache folder; bounded by "
+                        "$HULLPROD_FACE_CACHE_SIZE, default 2G, least recently used out first)")
+    c.add_argument("--no-cache", action="store_true", help="integrate every face, store none")
 
 
 #: analyze's options that take a value (the others are flags), for early_reading's scan.
 VALUE_OPTIONS = ("--lref", "--hf", "--kf", "--backend", "--faces", "--order", "--rtol", "--max-depth",
-                 "--protocol", "--point-budget", "--depth-limit", "--jobs", "--out", "--object")
+                 "--protocol", "--point-budget", "--depth-limit", "--jobs", "--out", "--object", "--cache")
 
 
 def early_reading(argv):
@@ -115,11 +121,16 @@ def early_reading(argv):
 
 
 def quadrature_options(args):
+    """The BRep settings the arguments give (api.assess's options), with the faces' store
+    (cache: False for --no-cache, the --cache folder, or absent for the default)."""
+    cache = False if getattr(args, "no_cache", False) else getattr(args, "cache", None)
+    if getattr(args, "no_cache", False) and getattr(args, "cache", None):
+        raise InputError("--cache DIR and --no-cache contradict each other: give one")
     return {k: v for k, v in (("order", args.order), ("rtol", args.rtol), ("max_depth", args.max_depth),
                               ("protocol", getattr(args, "protocol", None)),
                               ("point_budget", getattr(args, "point_budget", None)),
                               ("depth_limit", getattr(args, "depth_limit", None)),
-                              ("jobs", getattr(args, "jobs", None))) if v is not None}
+                              ("jobs", getattr(args, "jobs", None)), ("cache", cache)) if v is not None}
 
 
 def build_parser(command=None):

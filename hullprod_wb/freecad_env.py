@@ -57,6 +57,17 @@ def set_reported_versions(reported):
     _REPORTED = dict(reported) if reported else None
 
 
+def user_cache_folder():
+    """FreeCAD's user cache folder (App.getUserCachePath) when FreeCAD is loaded here, else
+    None."""
+    if "FreeCAD" not in sys.modules:
+        return None
+    try:
+        return str(sys.modules["FreeCAD"].getUserCachePath())
+    except Exception:  # a FreeCAD without it
+        return None
+
+
 def versions(load=True):
     """FreeCAD and OpenCascade versions as strings, or None where FreeCAD is absent (those
     of the reading process, set_reported_versions, when FreeCAD is not loaded here). With

@@ -11,6 +11,9 @@ if ROOT not in sys.path:
 from hullprod_wb import freecad_env  # noqa: E402
 
 HAVE_FREECAD = freecad_env.freecad_available()
+# Every assessment of the suite integrates its faces (the user's store is neither read nor
+# filled); the store's own tests give a folder of their own.
+os.environ["HULLPROD_FACE_CACHE"] = "off"
 SHARED_HULLS = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls"))
 
 

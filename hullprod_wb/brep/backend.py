@@ -23,18 +23,20 @@ from ..core.errors import InputError
 from ..core.file_checks import fewer_faces
 from ..core.integrals import SurfaceIntegrals
 from ..core.progress import null_progress
+from ..core.result_store import open_store
 from ..core.reference_length import resolve_reference_length
 from ..core.result import Assessment
 from ..core.signature import signature_values
 from ..core.thresholds import Thresholds
 from ..core.validity import Qualification, qualify_all
-from ..freecad_env import set_reported_versions
+from ..freecad_env import set_reported_versions, user_cache_folder, versions
 from .validity.budget import (BUDGET_ROUNDS, QuadratureOptions, disagreement, face_point_budgets, faces_to_refine,
                               grown_budgets, quadrature_options)
 from .cubature import GROUPS
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_assessment import assess_face
+from .face_keys import HALF, face_key, geometry_digest, settings_digest
 from .geometry.face_field import FaceField
 from ..core.processes import map_faces, resolve_jobs
 from .face_result import FaceAssessment
@@ -61,7 +63,11 @@ class BrepRun:
     shape: a RecordedShape (RecordedRun: from the plain records of the reading process) or a
     loaded BRepInput (LoadedRun); opts: the quadrature options (budget.quadrature_options,
     with audit); progress(fraction, message); started: perf_counter() at the start; the
-    caller's with_fields, display_deflection, cross_checks and jobs. The stages add: n_jobs
+    caller's with_fields, display_deflection, cross_checks, jobs and cache (the faces' store:
+    result_store.open_store's choice). The stages add: store (a ResultStore or None) and
+    store_source, geometry (each face's face_keys.geometry_digest, None without a store),
+    settings (face_keys.settings_digest), from_store (the numbers of the faces whose
+    results came from the store), n_jobs
     (processes.resolve_jobs), cost (each face's patch count), setups (each face's FaceSetup
     made here, or None), size (the bounding-box diagonal), occ_areas (OpenCascade's face
     areas where known here), ref (the reference length), thresholds, deflection (of the
@@ -69,7 +75,7 @@ class BrepRun:
     (each face's share of the progress), group_jobs, face_budgets (points), results (each
     face's FaceAssessment or LeftOutFace), provenance, and every stage's seconds (timings).
     What the kind of shape decides: READING, face_cost, lref_ready, face_field,
-    lref_samples, samples_before_quadrature, shape_records and late_records.
+    lref_samples, samples_before_quadrature, shape_records, late_records and user_cache.
     """
 
     shape: object
@@ -80,7 +86,13 @@ class BrepRun:
     display_deflection: Optional[float]
     cross_checks: bool
     jobs: Optional[int]
+    cache: object = None
     timings: dict = field(default_factory=dict)
+    store: object = None
+    store_source: str = ""
+    geometry: list = None
+    settings: str = None
+    from_store: list = field(default_factory=list)
     n_jobs: int = 1
     cost: list = None
     setups: list = None
@@ -142,14 +154,22 @@ class BrepRun:
         self.n_jobs = resolve_jobs(self.jobs, len(faces))
         self.cost = [self.face_cost(f) for f in faces]
         ready = self.lref_ready
+        self.store, self.store_source = open_store(self.cache, self.user_cache)
+        self.geometry = [geometry_digest(f) if self.store is not None else None for f in faces]
+        # a face whose geometry is in the store is likely to come from it: not set up here
+        todo = [i for i, g in enumerate(self.geometry) if g is None or not self.store.has_any(g[:HALF])]
+        self.setups = [None] * len(faces)
         if self.n_jobs == 1:
-            self.setups = [set_up_or_none(f, self.cross_checks) for f in faces]
+            for i in todo:
+                self.setups[i] = set_up_or_none(faces[i], self.cross_checks)
             if ready is not None:
                 for s in self.setups:
                     if s is not None:
                         s.prefetch_until(ready, self.opts.order, self.in_groups, self.opts.max_depth)
         else:
-            self.setups = set_up_until(ready, faces, self.cost, self.cross_checks)
+            for i, s in zip(todo, set_up_until(ready, [faces[i] for i in todo], [self.cost[i] for i in todo],
+                                               self.cross_checks)):
+                self.setups[i] = s
 
     def reference_length(self, lref, h_f, k_f):
         """Stage 3: L_ref (lref, or automatic from the nodes of one fixed tessellation, whatever
@@ -175,12 +195,43 @@ class BrepRun:
         self.group_jobs = resolve_jobs(self.jobs, GROUPS) if self.in_groups else 1
         self.face_budgets = face_point_budgets(self.opts, self.weights)
         n = len(self.shape.faces)
+        if self.store is not None:
+            self.settings = settings_digest(self.ref.value, self.thresholds, self.opts, self.in_groups,
+                                            self.cross_checks, self.shape.versions.get("OCC") if
+                                            isinstance(self, RecordedRun) else versions().get("OCC"),
+                                            type(self).__name__)
         self.start_pass(INTEGRATION_SPAN, self.weights, n)
         if self.n_jobs > 1:
             self.progress(0.05, "integrating %d faces in %d processes" % (n, self.n_jobs))
-        self.results = map_faces(self.face_work, n, self.n_jobs, cost=self.cost, on_done=self.finished,
-                                 labels=["Face%d" % k for k, _ in self.shape.faces],
-                                 while_waiting=self._timed_shape_records)
+        self.results = self.stored_or_assessed(list(range(n)), self.cost, self._timed_shape_records)
+
+    def key(self, i):
+        """Face i's key in the store with its current point budget (None: not stored)."""
+        g = self.geometry[i] if self.store is not None else None
+        return None if g is None else face_key(g, self.settings, self.face_budgets[i])
+
+    def stored_or_assessed(self, todo, cost, while_waiting=None):
+        """The results of the faces todo (indices): from the store where their keys hit, the
+        others assessed (face_work) in worker processes and stored; while_waiting as
+        map_faces's."""
+        faces, out, missed = self.shape.faces, [None] * len(todo), []
+        keys = [self.key(i) for i in todo]
+        for k, (i, key) in enumerate(zip(todo, keys)):
+            f = self.store.get(key) if key is not None else None
+            if f is None:
+                missed.append(k)
+                continue
+            out[k] = f.renumbered(faces[i][0])
+            self.from_store.append(faces[i][0])
+            self.finished(i, out[k], "from the store")
+        got = map_faces(lambda m: self.face_work(todo[missed[m]]), len(missed), min(self.n_jobs, max(len(missed), 1)),
+                        cost=[cost[todo[k]] for k in missed], labels=["Face%d" % faces[todo[k]][0] for k in missed],
+                        on_done=lambda m, f: self.finished(todo[missed[m]], f), while_waiting=while_waiting)
+        for k, f in zip(missed, got):
+            out[k] = f
+            if keys[k] is not None and isinstance(f, FaceAssessment):
+                self.store.put(keys[k], f)
+        return out
 
     def _timed_shape_records(self):
         with self.timed("provenance_s"):
@@ -221,12 +272,12 @@ class BrepRun:
                           "face %d: %s" % (number, message))
         return progress
 
-    def finished(self, i, f):
-        """Progress as face i finishes (f: its FaceAssessment or LeftOutFace)."""
+    def finished(self, i, f, how="done"):
+        """Progress as face i finishes (f: its FaceAssessment or LeftOutFace; how it was)."""
         self.done_weight += self.pass_weights[i]
         self.done_count += 1
         self.progress(self.pass_fraction(self.done_weight), "face %d %s (%d of %d faces)"
-                      % (f.number, "done" if isinstance(f, FaceAssessment) else "NOT EVALUATED", self.done_count,
+                      % (f.number, how if isinstance(f, FaceAssessment) else "NOT EVALUATED", self.done_count,
                          self.pass_size))
 
     def refine_where_the_error_is(self):
@@ -252,9 +303,7 @@ class BrepRun:
                             share, len(redo))
             self.progress(self.pass_fraction(0.0), "refining %d face(s) that carry the shape's error: %s"
                           % (len(redo), ", ".join("Face%d" % faces[i][0] for i in redo)))
-            again = map_faces(lambda k: self.face_work(redo[k]), len(redo), min(self.n_jobs, len(redo)),
-                              cost=[budgets[i] for i in redo], labels=["Face%d" % faces[i][0] for i in redo],
-                              on_done=lambda k, f: self.finished(redo[k], f))
+            again = self.stored_or_assessed(redo, budgets)
             for i, f in zip(redo, again):
                 if not isinstance(f, LeftOutFace):
                     f.disagreement = disagreement(results[i].quad, f.quad)
@@ -307,6 +356,7 @@ class BrepRun:
             qualify_all(validity, left_out_qualification(left_out, integrals.represented_area))
         with self.timed("provenance_s"):
             self.face_provenance(results, rows, validity)
+            self.provenance["cache"] = self.store_record()
 
         fields = display_fields(self.samples, ref.value, th) if self.with_fields else None
         if fields is not None:
@@ -335,6 +385,19 @@ class BrepRun:
                                    "lref_sample_deflection": SAMPLE_DEFLECTION * self.size,
                                    "points_evaluated": points},
                           timings=self.timings, warnings=warnings)
+
+    def store_record(self):
+        """provenance.cache: the store's folder and where it comes from, its counts this run
+        (result_store.StoreCounts), the faces whose results came from it and those it cannot
+        hold (no exact key); the least recently used entries pruned beyond its bound."""
+        if self.store is None:
+            return {"enabled": False, "source": self.store_source}
+        if self.store.counts.written:
+            self.store.prune()
+        return {"enabled": True, "source": self.store_source, "folder": self.store.folder,
+                "max_bytes": self.store.max_bytes, **self.store.counts.to_dict(),
+                "faces_from_store": sorted(set(self.from_store)),
+                "faces_without_key": [n for (n, _), g in zip(self.shape.faces, self.geometry) if g is None]}
 
     def face_provenance(self, results, rows, validity):
         """The provenance's units, per-face records (rows), the faces on which the curvature
@@ -367,6 +430,10 @@ class RecordedRun(BrepRun):
 
     def face_cost(self, face):
         return face.patch_count
+
+    @property
+    def user_cache(self):
+        return self.shape.user_cache
 
     @property
     def lref_ready(self):
@@ -410,6 +477,10 @@ class LoadedRun(BrepRun):
         return patch_count(face)
 
     @property
+    def user_cache(self):
+        return user_cache_folder()
+
+    @property
     def lref_ready(self):
         """None: nothing tells when the L_ref tessellation is done (without workers no face
         prefetches its first levels; with them none is set up here)."""
@@ -439,7 +510,7 @@ class LoadedRun(BrepRun):
 
 def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, with_fields=True,
                 progress=None, order=None, rtol=None, max_depth=None, audit=True, display_deflection=None,
-                cross_checks=True, jobs=None, protocol=None, depth_limit=None, point_budget=None):
+                cross_checks=True, jobs=None, protocol=None, depth_limit=None, point_budget=None, cache=None):
     """Signature of a BRep (file path, Part.Shape, FreeCAD object, or a BRepInput already
     loaded, whose face selection then stands) by exact quadrature.
 
@@ -452,13 +523,17 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
     bounding-box diagonal; the automatic L_ref always comes from the nodes of a tessellation
     at 2e-2 of it, display.SAMPLE_DEFLECTION); cross_checks: derivatives
     against OpenCascade and the independent area per face; jobs: worker processes for the
-    faces (None: automatic, see processes.resolve_jobs; the values do not depend on it).
+    faces (None: automatic, see processes.resolve_jobs; the values do not depend on it);
+    cache: the faces' store (core.result_store.open_store: None for $HULLPROD_FACE_CACHE or
+    FreeCAD's user cache folder, a folder, a ResultStore, or False for none): a face whose
+    key (face_keys) is there is taken from it, the others are stored as they are integrated.
     """
     try:
         started = time.perf_counter()
         opts = quadrature_options(order, rtol, max_depth, protocol, depth_limit, point_budget, audit)
         run = BrepRun.read(source, faces, opts, progress or null_progress, started, with_fields=with_fields,
-                           display_deflection=display_deflection, cross_checks=cross_checks, jobs=jobs)
+                           display_deflection=display_deflection, cross_checks=cross_checks, jobs=jobs,
+                           cache=cache)
         with run.timed("display_samples_s"):
             run.set_up_faces()
             run.reference_length(lref, h_f, k_f)

@@ -74,6 +74,14 @@ class FaceAssessment:
         self.cross_check = None
         self.disagreement = {}  # quantity -> [earlier, finer] where a second integration disagreed
 
+    def renumbered(self, number):
+        """Self as face number (a result from the store, made for the same face under another
+        number). Returns self."""
+        self.number = number
+        if isinstance(self.cross_check, dict) and "face" in self.cross_check:
+            self.cross_check["face"] = number
+        return self
+
     def detach(self):
         """Drop the face field and the trimmed domain (OpenCascade objects), keeping what the
         records need, so that the assessment can leave a worker process. Returns self."""

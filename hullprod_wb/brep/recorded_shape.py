@@ -45,7 +45,8 @@ class FaceRecord:
 
 class RecordedShape:
     """The records of a BRep file (record_reader.ReadInChild, whose first frame has arrived):
-    info, units, faces [(number, FaceRecord)], size (bounding-box diagonal), read_seconds;
+    info, units, faces [(number, FaceRecord)], size (bounding-box diagonal), read_seconds,
+    user_cache (FreeCAD's user cache folder on the reading side);
     lref_samples() and late() read the later frames, lref_ready() tells whether the first
     of them is there."""
 
@@ -56,6 +57,7 @@ class RecordedShape:
         self.info, self.units = first.info, first.units
         self.size, self.read_seconds = first.size, first.read_seconds
         self.versions = first.versions
+        self.user_cache = first.user_cache
         self.faces = [(r.number, FaceRecord(r, self)) for r in first.faces]
         self._late = None
         self._part_faces = {}

@@ -31,7 +31,8 @@ class FaceData:
     for a trimmed domain that needs OpenCascade); patch_count and occ_reference (OpenCascade's
     values at the cross-check points); and for a described face nurbs (nurbs_record),
     orientation_sign, parameter_range, pcurves (pcurve_record each), end_vertices and
-    vertices (edge_vertices)."""
+    vertices (edge_vertices); for a face sent as data, data_digest (the SHA-256 of its data
+    alone: its key in the result store, brep.face_keys)."""
 
     number: int
     surface_type: str
@@ -46,6 +47,7 @@ class FaceData:
     pcurves: Optional[list] = None
     end_vertices: Optional[list] = None
     vertices: Optional[list] = None
+    data_digest: Optional[str] = None
 
     @property
     def as_data(self):

@@ -23,12 +23,13 @@ that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied
 
 Nothing here imports numpy: the reading side never loads it.
 """
+import hashlib
 import os
 import time
 from dataclasses import dataclass
 from typing import Optional
 
-from ...freecad_env import import_freecad, versions
+from ...freecad_env import import_freecad, user_cache_folder, versions
 from .loading import faces_to_bytes, load_brep
 from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
 from .occ_records import (CROSS_CHECK_POINTS, DISPLAY_DEFLECTION, FaceData, display_mesh, face_record,
@@ -45,8 +46,9 @@ FRAME = "frame"
 class FacesFrame:
     """The first frame: the file's description (info) and units, its faces' records
     (occ_records.FaceData), the bounding-box diagonal (size), the software versions of the
-    reading side, the seconds the file took to read, and the faces sent as OpenCascade's
-    data (loading.faces_to_bytes; None when every face is described by numbers)."""
+    reading side, the seconds the file took to read, the faces sent as OpenCascade's
+    data (loading.faces_to_bytes; None when every face is described by numbers), and
+    FreeCAD's user cache folder (freecad_env.user_cache_folder)."""
 
     info: dict
     units: dict
@@ -55,6 +57,7 @@ class FacesFrame:
     versions: dict
     read_seconds: float
     part_faces: Optional[bytes]
+    user_cache: Optional[str] = None
 
 
 @dataclass(frozen=True)
@@ -85,7 +88,8 @@ def part_record(face, why, number, part):
     """The FaceData (kind "part") of a face sent as OpenCascade's own data
     (loading.faces_to_bytes) instead of plain numbers (another surface type, a planar face,
     a p-curve of another type or none, or a face face_record could not describe), the
-    reason why; the face itself travels in the frame's part_faces, at index part."""
+    reason why; the face itself travels in the frame's part_faces, at index part. Its
+    data_digest is the SHA-256 of its own data (None where OpenCascade cannot write it)."""
     try:
         surface_type = type(face.Surface).__name__
     except Exception:  # no surface OpenCascade can give: the parent's set-up says so
@@ -94,8 +98,12 @@ def part_record(face, why, number, part):
         reference = occ_reference(face)
     except Exception:  # no parameter range: nothing to compare
         reference = [None] * CROSS_CHECK_POINTS
+    try:
+        data_digest = hashlib.sha256(faces_to_bytes([face])).hexdigest()
+    except Exception:  # no data OpenCascade can write: the face is never stored
+        data_digest = None
     return FaceData(number=number, surface_type=surface_type, kind="part", part=part,
-                    patch_count=patch_count(face), occ_reference=reference, reason=why)
+                    patch_count=patch_count(face), occ_reference=reference, reason=why, data_digest=data_digest)
 
 
 def record_frames(path, faces, with_fields, display_deflection):
@@ -129,7 +137,7 @@ def _frames(inp, with_fields, display_deflection, read_seconds):
         faces.append(rec)
     # the records first: the parent sets the faces up while the tessellation runs here
     yield {FRAME: FacesFrame(inp.info, inp.units, faces, size, versions(), read_seconds,
-                             faces_to_bytes(as_data) if as_data else None),
+                             faces_to_bytes(as_data) if as_data else None, user_cache_folder()),
            STAGE: "tessellating the faces"}
     t = time.perf_counter()
     pts, tris = tessellate_faces([f for _, f in inp.faces], SAMPLE_DEFLECTION * size)

@@ -1,0 +1,352 @@
+"""The BRep faces' store: entries that are whole or ignored, least-recently-used bounds,
+exact keys, and incremental assessments equal to cold ones (core.result_store,
+brep.face_keys, brep.backend)."""
+import errno
+import json
+import multiprocessing
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, needs_freecad
+from hullprod_wb.core import result_store
+from hullprod_wb.core.errors import InputError
+from hullprod_wb.core.result_store import ResultStore, open_store, parse_size
+
+KEY = "ab" * 32
+OTHER = "cd" * 32
+
+
+def test_entries_round_trip_and_count(tmp_path):
+    s = ResultStore(tmp_path / "store")
+    assert s.get(KEY) is None
+    assert s.put(KEY, {"values": [1.0, -0.0, np.float64(2.5)]})
+    got = s.get(KEY)
+    assert got["values"][0] == 1.0 and str(got["values"][1]) == "-0.0" and got["values"][2] == 2.5
+    c = s.counts
+    assert (c.hits, c.misses, c.written, c.damaged) == (1, 1, 1, 0)
+    assert c.bytes_read == c.bytes_written == os.path.getsize(s.path(KEY)) > 0
+    assert oct(os.stat(os.path.dirname(s.path(KEY))).st_mode & 0o777) == oct(0o700)
+
+
+@pytest.mark.parametrize("damage", ["truncate", "flip", "other_key", "empty", "garbage"])
+def test_a_damaged_entry_is_ignored_and_removed(tmp_path, damage):
+    s = ResultStore(tmp_path)
+    s.put(KEY, list(range(1000)))
+    path = s.path(KEY)
+    data = open(path, "rb").read()
+    if damage == "truncate":
+        data = data[:len(data) // 2]
+    elif damage == "flip":
+        i = len(data) - 10
+        data = data[:i] + bytes([data[i] ^ 1]) + data[i + 1:]
+    elif damage == "other_key":  # a whole entry of another key under this name
+        s.put(OTHER, list(range(1000)))
+        data = open(s.path(OTHER), "rb").read()
+    elif damage == "empty":
+        data = b""
+    else:
+        data = os.urandom(500)
+    with open(path, "wb") as fh:
+        fh.write(data)
+    assert s.get(KEY) is None
+    assert s.counts.damaged == 1 and s.counts.hits == 0
+    assert not os.path.exists(path)
+    assert s.put(KEY, [1, 2]) and s.get(KEY) == [1, 2]  # recomputed and stored again
+
+
+def test_a_full_disk_turns_writing_off_and_loses_nothing(tmp_path, monkeypatch):
+    s = ResultStore(tmp_path)
+    s.put(KEY, "kept")
+
+    def full(path, mode="r", *args, **kw):
+        if "w" in mode:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return open(path, mode, *args, **kw)
+    monkeypatch.setattr(result_store, "open", full, raising=False)
+    assert s.put(OTHER, "lost") is False
+    assert s.writable is False and s.counts.write_errors and "ENOSPC" in s.counts.write_errors[0]
+    assert s.put(OTHER, "again") is False and len(s.counts.write_errors) == 1  # no retry per face
+    monkeypatch.undo()
+    assert s.get(KEY) == "kept" and s.get(OTHER) is None
+    assert not [n for n in os.listdir(os.path.dirname(s.path(OTHER))) if ".tmp-" in n]
+
+
+def test_prune_removes_the_least_recently_used(tmp_path):
+    s = ResultStore(tmp_path)
+    keys = ["%02x" % i + "0" * 62 for i in range(6)]
+    for i, k in enumerate(keys):
+        s.put(k, bytes(1000))
+        os.utime(s.path(k), (1000.0 + i, 1000.0 + i))  # written one after the other
+    s.get(keys[0])  # used now: the most recent
+    size = os.path.getsize(s.path(keys[0]))
+    s.max_bytes = 3 * size
+    assert s.prune() == 3
+    assert [s.get(k) is not None for k in keys] == [True, False, False, False, True, True]
+    assert s.size() == 3 * size
+
+
+def test_prune_removes_stale_temporary_files(tmp_path):
+    s = ResultStore(tmp_path)
+    s.put(KEY, 1)
+    stale = s.path(KEY) + ".tmp-1-1"
+    fresh = s.path(KEY) + ".tmp-2-2"
+    for p in (stale, fresh):
+        open(p, "wb").close()
+    os.utime(stale, (0, 0))
+    s.prune()
+    assert not os.path.exists(stale) and os.path.exists(fresh)
+
+
+def _hammer(folder, value, rounds, q):
+    s = ResultStore(folder)
+    seen = set()
+    for _ in range(rounds):
+        s.put(KEY, value)
+        got = s.get(KEY)
+        seen.add(None if got is None else got[0])
+    q.put((seen, s.counts.damaged))
+
+
+def test_two_writers_at_once_leave_whole_entries(tmp_path):
+    big = [float(i) for i in range(20000)]
+    q = multiprocessing.get_context("spawn").Queue()
+    procs = [multiprocessing.get_context("spawn").Process(target=_hammer, args=(str(tmp_path), [k] + big, 60, q))
+             for k in ("a", "b")]
+    for p in procs:
+        p.start()
+    results = [q.get(timeout=120) for _ in procs]
+    for p in procs:
+        p.join(timeout=60)
+    for seen, damaged in results:
+        assert damaged == 0 and seen <= {"a", "b"}
+    got = ResultStore(tmp_path).get(KEY)
+    assert got[0] in ("a", "b") and got[1:] == big
+    assert not [n for n in os.listdir(os.path.dirname(ResultStore(tmp_path).path(KEY))) if ".tmp-" in n]
+
+
+def test_where_the_store_is(tmp_path, monkeypatch):
+    monkeypatch.delenv(result_store.FOLDER_ENV, raising=False)
+    monkeypatch.delenv(result_store.SIZE_ENV, raising=False)
+    s, how = open_store(None, str(tmp_path / "cache"))
+    assert s.folder == str(tmp_path / "cache" / "HullProd" / "faces") and "FreeCAD" in how
+    assert s.max_bytes == 2 * 1024 ** 3
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert open_store(None, None)[0].folder == str(tmp_path / "xdg" / "FreeCAD" / "Cache" / "HullProd" / "faces")
+    monkeypatch.setenv(result_store.FOLDER_ENV, str(tmp_path / "env"))
+    monkeypatch.setenv(result_store.SIZE_ENV, "512M")
+    s, how = open_store(None, None)
+    assert s.folder == str(tmp_path / "env") and s.max_bytes == 512 * 1024 ** 2 and "HULLPROD_FACE_CACHE" in how
+    assert open_store(str(tmp_path / "given"), None)[0].folder == str(tmp_path / "given")
+    monkeypatch.setenv(result_store.FOLDER_ENV, "off")
+    assert open_store(None, None)[0] is None
+    assert open_store(False, None)[0] is None
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(InputError, match="not a folder"):
+        open_store(str(tmp_path / "file"), None)
+
+
+def test_sizes_read_as_people_write_them():
+    assert parse_size("2G") == 2 * 1024 ** 3 and parse_size("100k") == 102400 and parse_size("7") == 7
+    assert parse_size("1.5MB") == int(1.5 * 1024 ** 2)
+    for bad in ("lots", "-1G", ""):
+        with pytest.raises(InputError):
+            parse_size(bad)
+
+
+def test_keys_are_exact():
+    from array import array
+    from hullprod_wb.brep.face_keys import canonical_bytes, digest
+    assert digest(0.0) != digest(-0.0) and digest(1) != digest(1.0) and digest("1") != digest(1)
+    assert digest([1.0, 2.0]) != digest([2.0, 1.0]) and digest({"a": 1, "b": 2}) != digest({"b": 2, "a": 1})
+    assert digest(1.0) != digest(np.nextafter(1.0, 2.0))
+    assert digest(array("d", [1.0, 2.0])) == digest(array("d", [1.0, 2.0]))
+    assert digest(np.arange(3.0)) != digest(np.arange(3.0).reshape(3, 1))
+    assert canonical_bytes([["ab"], "c"]) != canonical_bytes([["a"], "bc"])
+    with pytest.raises(TypeError):
+        canonical_bytes(object())
+
+
+def test_a_record_key_ignores_the_face_number_only():
+    from dataclasses import replace
+    from hullprod_wb.brep.face_keys import record_digest
+    from hullprod_wb.brep.reading.occ_records import FaceData
+    rec = FaceData(number=3, surface_type="BSplineSurface", kind="bspline", part=1, patch_count=4,
+                   occ_reference=[[1.0, 2.0]], nurbs={"poles": [0.0, 1.0, 2.0]}, orientation_sign=1)
+    assert record_digest(replace(rec, number=9, part=0)) == record_digest(rec)
+    assert record_digest(replace(rec, nurbs={"poles": [0.0, 1.0, 2.0000000000000004]})) != record_digest(rec)
+    assert record_digest(replace(rec, orientation_sign=-1)) != record_digest(rec)
+    data = replace(rec, kind="part", nurbs=None)
+    assert record_digest(data) is None  # a face sent as data without a digest of its data: never stored
+    assert record_digest(replace(data, data_digest="0" * 64)) != record_digest(replace(data, data_digest="1" * 64))
+
+
+# --- assessments through the store -------------------------------------------------------
+
+def patches(bumps=(), n=3):
+    """Part faces of n x n bicubic Bezier patches of a smooth hull-like surface; bumps: (patch
+    index, dz) moving that patch's pole (2, 2)."""
+    from hullprod_wb.examples.analytic_shapes import bezier_face
+    faces = []
+    for k in range(n * n):
+        i, j = divmod(k, n)
+        u = (i + np.linspace(0.0, 1.0, 4))[:, None] / n
+        v = (j + np.linspace(0.0, 1.0, 4))[None, :] / n
+        P = np.zeros((4, 4, 3))
+        P[..., 0], P[..., 1] = 4.0 * u, 1.0 * v + 0 * u
+        P[..., 2] = 0.3 * np.sin(2.5 * u) * np.cos(1.7 * v) + 0.1 * (u * v) ** 2
+        for index, dz in bumps:
+            if index == k:
+                P[2, 2, 2] += dz
+        faces.append(bezier_face(P))
+    return faces
+
+
+def write_shape(path, faces):
+    import Part
+    Part.Compound(faces).exportBrep(str(path))
+    return str(path)
+
+
+def analyze(path, store, *extra):
+    p = subprocess.run([os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet", "--no-fields",
+                        "--lref", "4"] + (["--cache", str(store)] if store else ["--no-cache"]) + list(extra),
+                       capture_output=True, text=True, timeout=600, env=dict(os.environ, HULLPROD_FACE_CACHE="off"))
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout)
+
+
+def comparable(doc):
+    """The document without what differs between equal runs: timings (the run's, and the
+    seconds a face's area rule took), the store's record."""
+    def strip(x):
+        if isinstance(x, dict):
+            return {k: strip(v) for k, v in x.items() if k != "seconds"}
+        return [strip(v) for v in x] if isinstance(x, list) else x
+    doc = json.loads(json.dumps(doc))
+    doc.pop("timings")
+    doc["provenance"].pop("cache")
+    return strip(doc)
+
+
+@needs_freecad
+def test_a_warm_run_equals_a_cold_one_bit_for_bit(tmp_path):
+    path = write_shape(tmp_path / "hull.brep", patches())
+    store = tmp_path / "store"
+    cold = analyze(path, store)
+    assert cold["provenance"]["cache"]["written"] == 9 and cold["provenance"]["cache"]["hits"] == 0
+    warm = analyze(path, store)
+    c = warm["provenance"]["cache"]
+    assert c["hits"] == 9 and c["misses"] == 0 and c["written"] == 0 and c["faces_from_store"] == list(range(1, 10))
+    assert comparable(warm) == comparable(cold)
+    assert comparable(analyze(path, None)) == comparable(cold)  # the store changes nothing
+
+
+@needs_freecad
+def test_changed_faces_are_integrated_again_and_the_rest_reused(tmp_path):
+    store = tmp_path / "store"
+    base = analyze(write_shape(tmp_path / "base.brep", patches()), store)
+    for name, bumps in (("one", [(4, 0.02)]), ("several", [(0, 0.01), (5, -0.02), (8, 0.03)])):
+        path = write_shape(tmp_path / (name + ".brep"), patches(bumps))
+        inc = analyze(path, store)
+        changed = sorted(k + 1 for k, _ in bumps)
+        c = inc["provenance"]["cache"]
+        assert c["faces_from_store"] == [f for f in range(1, 10) if f not in changed], name
+        assert c["written"] == len(changed)
+        cold = analyze(path, None)
+        assert comparable(inc) == comparable(cold), name
+        assert inc["signature"]["I_D"] != base["signature"]["I_D"]
+
+
+@needs_freecad
+def test_a_face_count_change_reuses_the_faces_whose_keys_match(tmp_path):
+    store = tmp_path / "store"
+    faces = patches()
+    few = ("--point-budget", "500000")  # every face at the floor of its budget, as most faces of a ship
+    analyze(write_shape(tmp_path / "base.brep", faces), store, *few)
+    fewer = write_shape(tmp_path / "fewer.brep", faces[:4] + faces[5:])  # face 5 removed: the rest renumbered
+    inc = analyze(fewer, store, *few)
+    assert inc["provenance"]["cache"]["hits"] == 8
+    assert [r["face"] for r in inc["provenance"]["faces"]] == list(range(1, 9))
+    assert comparable(inc) == comparable(analyze(fewer, None, *few))
+
+
+def test_a_new_face_leaves_most_other_budgets_as_they_were():
+    from hullprod_wb.brep.validity.budget import face_point_budgets, quadrature_options
+    rng = np.random.default_rng(5)
+    area = rng.lognormal(0.0, 2.0, 300)
+    opts = quadrature_options(point_budget=400_000_000)  # most faces above the floor
+    before = face_point_budgets(opts, area / area.sum())
+    grown = np.append(area, area.mean())
+    after = face_point_budgets(opts, grown / grown.sum())[:-1]
+    above = [i for i, b in enumerate(before) if b > 100_000]
+    assert len(above) > 100
+    same = sum(before[i] == after[i] for i in above)
+    assert same >= 0.9 * len(above)
+    assert sum(before) <= 400_000_000 + 100_000 * len(before)
+
+
+@needs_freecad
+def test_a_damaged_entry_in_an_assessment_is_recomputed(tmp_path):
+    path = write_shape(tmp_path / "hull.brep", patches())
+    store = tmp_path / "store"
+    cold = analyze(path, store)
+    entries = sorted(os.path.join(d, f) for d, _, fs in os.walk(store) for f in fs if f.endswith(".entry"))
+    with open(entries[3], "r+b") as fh:
+        fh.seek(-20, os.SEEK_END)
+        fh.write(b"\0" * 8)
+    warm = analyze(path, store)
+    c = warm["provenance"]["cache"]
+    assert (c["hits"], c["damaged_entries_ignored"], c["written"]) == (8, 1, 1)
+    assert comparable(warm) == comparable(cold)
+
+
+@needs_freecad
+def test_two_assessments_at_once_share_a_store(tmp_path):
+    path = write_shape(tmp_path / "hull.brep", patches())
+    store = tmp_path / "store"
+    cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet", "--no-fields", "--lref", "4",
+           "--cache", str(store), "--jobs", "1"]
+    runs = [subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    docs = []
+    for p in runs:
+        out, err = p.communicate(timeout=600)
+        assert p.returncode == 0, err
+        docs.append(json.loads(out))
+    assert comparable(docs[0]) == comparable(docs[1])
+    third = analyze(path, store, "--jobs", "1")
+    assert third["provenance"]["cache"]["hits"] == 9 and comparable(third) == comparable(docs[0])
+
+
+@needs_freecad
+def test_a_part_shape_in_process_uses_the_store_and_survives_a_full_disk(tmp_path, monkeypatch):
+    import Part
+    from hullprod_wb.brep.backend import assess_brep
+    shape = Part.Compound(patches(n=2))
+    kw = dict(lref=4.0, with_fields=False, jobs=1)
+    cold = assess_brep(shape, cache=str(tmp_path), **kw).to_dict()
+    warm = assess_brep(shape, cache=str(tmp_path), **kw).to_dict()
+    assert warm["provenance"]["cache"]["hits"] == 4 and comparable(warm) == comparable(cold)
+
+    def full(path, mode="r", *args, **kw):
+        if "w" in mode:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return open(path, mode, *args, **kw)
+    monkeypatch.setattr(result_store, "open", full, raising=False)
+    other = Part.Compound(patches([(1, 0.05)], n=2))
+    full_disk = assess_brep(other, cache=str(tmp_path / "new"), **kw).to_dict()
+    monkeypatch.undo()
+    c = full_disk["provenance"]["cache"]
+    assert c["written"] == 0 and "ENOSPC" in c["write_errors"][0]
+    assert comparable(full_disk) == comparable(assess_brep(other, cache=False, **kw).to_dict())
+    assert assess_brep(other, cache=False, **kw).to_dict()["provenance"]["cache"] == {
+        "enabled": False, "source": "off (--no-cache, cache=False)"}
+
+
+def test_the_command_refuses_contradicting_store_options(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "hullprod_wb.cli", "analyze", "x.igs", "--cache", str(tmp_path),
+                        "--no-cache"], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 2 and "contradict" in p.stderr
