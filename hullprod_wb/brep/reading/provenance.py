@@ -41,10 +41,15 @@ def _normals_on_edge(face, edge, ts, points):
 
 
 def _on_edges(point, edges, tol):
-    """(edge, parameter) of the first edge within tol of point, or None."""
-    import Part
-    vertex = Part.Vertex(point)
-    for e in edges:
+    """(edge, parameter) of the first edge within tol of point, or None; edges: (edge, its
+    box enlarged by tol) pairs, a box that does not hold the point ruling its edge out."""
+    vertex = None
+    for e, bb in edges:
+        if not bb.isInside(point):
+            continue
+        if vertex is None:
+            import Part
+            vertex = Part.Vertex(point)
         if e.distToShape(vertex)[0] < tol:
             return e, e.Curve.parameter(point)
     return None
@@ -95,15 +100,22 @@ class BoxIndex:
         return sorted(found + self.large) if self.large else found
 
 
+def _enlarged(bb, tol):
+    out = type(bb)(bb)  # a copy
+    out.enlarge(tol)
+    return out
+
+
 def _bounds(bb):
     return (bb.XMin, bb.YMin, bb.ZMin, bb.XMax, bb.YMax, bb.ZMax)
 
 
 def shape_boxes(shape, faces):
-    """Bounding boxes of shape and of each of faces (list of (number, Part.Face)), to be taken
-    before anything is tessellated: OpenCascade's boxes shrink to a triangulation once there
-    is one, and the provenance should not depend on it (shape_provenance)."""
-    return shape.BoundBox, [f.BoundBox for _, f in faces]
+    """Bounding boxes of shape, of each of faces (list of (number, Part.Face)) and of each
+    face's edges, to be taken before anything is tessellated: OpenCascade's boxes shrink to a
+    triangulation once there is one (they then no longer hold the curves), and the provenance
+    should not depend on it (shape_provenance)."""
+    return shape.BoundBox, [f.BoundBox for _, f in faces], [[e.BoundBox for e in f.Edges] for _, f in faces]
 
 
 def edge_report(shape, faces, boxes=None):
@@ -115,20 +127,22 @@ def edge_report(shape, faces, boxes=None):
     (half the sum over the two sides). Normals of the two faces differing by more than
     CREASE_ANGLE_DEG at any sample make a C0 crease (normals from the edges' p-curves).
     """
-    shape_bb, face_bbs = boxes or shape_boxes(shape, faces)
+    shape_bb, face_bbs, edge_bbs = boxes or shape_boxes(shape, faces)
     size = max(shape_bb.DiagonalLength, 1e-300)
     tol = 1e-5 * size
     n_free = n_shared = 0
     free_len = shared_len = crease_len = 0.0
     creases = {}
     boxes = []
-    for (number, face), bb in zip(faces, face_bbs):
-        bb = type(bb)(bb)  # a copy, enlarged
-        bb.enlarge(tol)
-        boxes.append((number, face, bb, [e for e in face.Edges if e.Length > tol]))
+    for (number, face), bb, ebbs in zip(faces, face_bbs, edge_bbs):
+        edges = []
+        for e, ebb in zip(face.Edges, ebbs):
+            if e.Length > tol:
+                edges.append((e, _enlarged(ebb, tol)))
+        boxes.append((number, face, _enlarged(bb, tol), edges))
     index = BoxIndex([_bounds(b[2]) for b in boxes])
     for number, face, _, edges in boxes:
-        for edge in edges:  # degenerated edges (collapsed sides of a patch) are left out
+        for edge, _ in edges:  # degenerated edges (collapsed sides of a patch) are left out
             ts = _edge_params(edge)
             pts = [edge.valueAt(t) for t in ts]
             partner = None
