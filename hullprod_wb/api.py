@@ -70,7 +70,8 @@ def assess(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, backend=None, face
         # process loads numpy and the backend (brep.reading.record_reader); a reader that ends the
         # child is reported (core.errors.ReaderDied), and this process reads no file itself
         from .brep.reading.record_reader import ReadInChild
-        source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"))
+        source = ReadInChild(os.fspath(source), faces, with_fields, options.get("display_deflection"),
+                             options.get("cache"))
     try:
         from .brep.backend import assess_brep
     except BaseException:

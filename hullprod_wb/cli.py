@@ -117,7 +117,8 @@ def early_reading(argv):
         faces = parse_faces(opts.get("--faces"))
     except (InputError, TypeError, ValueError):
         return None
-    return ReadInChild(path, faces, with_fields="--no-fields" not in opts or "--out" in opts)
+    cache = False if "--no-cache" in opts else opts.get("--cache")
+    return ReadInChild(path, faces, with_fields="--no-fields" not in opts or "--out" in opts, cache=cache)
 
 
 def quadrature_options(args):
@@ -191,15 +192,16 @@ def run_analyze(args):
     progress = null_progress if args.quiet else StderrProgress()
     faces, with_fields = parse_faces(args.faces), not args.no_fields or bool(args.out)
     source, early = args.input, getattr(args, "early_reading", None)
+    options = quadrature_options(args)
     if early is not None:
-        if (early.path, early.faces, early.with_fields) == (args.input, faces, with_fields) \
+        if (early.path, early.faces, early.with_fields, early.cache) == (args.input, faces, with_fields,
+                                                                         options.get("cache")) \
                 and args.backend in (None, "brep"):
             source = early  # the reading process started by main (early_reading)
         else:
             early.close()
     result = assess(source, lref=args.lref, h_f=args.hf, k_f=args.kf, backend=args.backend,
-                    faces=faces, with_fields=with_fields, progress=progress, object_name=args.object,
-                    **quadrature_options(args))
+                    faces=faces, with_fields=with_fields, progress=progress, object_name=args.object, **options)
     if args.report and not args.out:
         raise InputError("--report writes DIR/report.html: give --out DIR")
     paths = result.save(args.out, overwrite=args.overwrite) if args.out else None

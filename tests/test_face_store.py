@@ -159,7 +159,7 @@ def test_sizes_read_as_people_write_them():
 
 def test_keys_are_exact():
     from array import array
-    from hullprod_wb.brep.face_keys import canonical_bytes, digest
+    from hullprod_wb.core.exact_keys import canonical_bytes, digest
     assert digest(0.0) != digest(-0.0) and digest(1) != digest(1.0) and digest("1") != digest(1)
     assert digest([1.0, 2.0]) != digest([2.0, 1.0]) and digest({"a": 1, "b": 2}) != digest({"b": 2, "a": 1})
     assert digest(1.0) != digest(np.nextafter(1.0, 2.0))
@@ -172,7 +172,7 @@ def test_keys_are_exact():
 
 def test_a_record_key_ignores_the_face_number_only():
     from dataclasses import replace
-    from hullprod_wb.brep.face_keys import record_digest
+    from hullprod_wb.brep.reading.record_keys import record_digest
     from hullprod_wb.brep.reading.occ_records import FaceData
     rec = FaceData(number=3, surface_type="BSplineSurface", kind="bspline", part=1, patch_count=4,
                    occ_reference=[[1.0, 2.0]], nurbs={"poles": [0.0, 1.0, 2.0]}, orientation_sign=1)
@@ -241,6 +241,9 @@ def test_a_warm_run_equals_a_cold_one_bit_for_bit(tmp_path):
     warm = analyze(path, store)
     c = warm["provenance"]["cache"]
     assert c["hits"] == 9 and c["misses"] == 0 and c["written"] == 0 and c["faces_from_store"] == list(range(1, 10))
+    # the reading process keeps OpenCascade's face areas there too
+    assert cold["provenance"]["cache"]["occ_areas_from_store"] == {"hits": 0, "misses": 9}
+    assert c["occ_areas_from_store"] == {"hits": 9, "misses": 0}
     assert comparable(warm) == comparable(cold)
     assert comparable(analyze(path, None)) == comparable(cold)  # the store changes nothing
 
@@ -295,7 +298,8 @@ def test_a_damaged_entry_in_an_assessment_is_recomputed(tmp_path):
     store = tmp_path / "store"
     cold = analyze(path, store)
     entries = sorted(os.path.join(d, f) for d, _, fs in os.walk(store) for f in fs if f.endswith(".entry"))
-    with open(entries[3], "r+b") as fh:
+    assert len(entries) == 18  # nine faces' results and nine areas
+    with open(max(entries, key=os.path.getsize), "r+b") as fh:  # a face's result
         fh.seek(-20, os.SEEK_END)
         fh.write(b"\0" * 8)
     warm = analyze(path, store)

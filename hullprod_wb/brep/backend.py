@@ -36,7 +36,8 @@ from .cubature import GROUPS
 from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
                       tessellation_samples)
 from .face_assessment import assess_face
-from .face_keys import HALF, face_key, geometry_digest, settings_digest
+from ..core.exact_keys import HALF
+from .face_keys import face_key, geometry_digest, settings_digest
 from .geometry.face_field import FaceField
 from ..core.processes import map_faces, resolve_jobs
 from .face_result import FaceAssessment
@@ -389,7 +390,9 @@ class BrepRun:
     def store_record(self):
         """provenance.cache: the store's folder and where it comes from, its counts this run
         (result_store.StoreCounts), the faces whose results came from it and those it cannot
-        hold (no exact key); the least recently used entries pruned beyond its bound."""
+        hold (no exact key), the reading process's lookups of OpenCascade's face areas; the
+        least recently used entries pruned beyond its bound."""
+        areas = self.provenance.pop("occ_areas_from_store", None)  # the reading process's lookups
         if self.store is None:
             return {"enabled": False, "source": self.store_source}
         if self.store.counts.written:
@@ -397,7 +400,8 @@ class BrepRun:
         return {"enabled": True, "source": self.store_source, "folder": self.store.folder,
                 "max_bytes": self.store.max_bytes, **self.store.counts.to_dict(),
                 "faces_from_store": sorted(set(self.from_store)),
-                "faces_without_key": [n for (n, _), g in zip(self.shape.faces, self.geometry) if g is None]}
+                "faces_without_key": [n for (n, _), g in zip(self.shape.faces, self.geometry) if g is None],
+                "occ_areas_from_store": areas}
 
     def face_provenance(self, results, rows, validity):
         """The provenance's units, per-face records (rows), the faces on which the curvature

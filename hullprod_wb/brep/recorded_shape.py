@@ -91,7 +91,7 @@ class RecordedShape:
             self.reader.close()
             if with_fields and frame.display is None:
                 from .reading.record_reader import ReadInChild
-                again = ReadInChild(self.path, self.selection, True, display_deflection)
+                again = ReadInChild(self.path, self.selection, True, display_deflection, self.reader.cache)
                 try:
                     frame = again.late_frame()
                 finally:

@@ -29,12 +29,14 @@ import time
 from dataclasses import dataclass
 from typing import Optional
 
+from ...core.errors import InputError
 from ...freecad_env import import_freecad, user_cache_folder, versions
 from .loading import faces_to_bytes, load_brep
 from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
 from .occ_records import (CROSS_CHECK_POINTS, DISPLAY_DEFLECTION, FaceData, display_mesh, face_record,
                           occ_reference, patch_count)
-from .provenance import shape_boxes, shape_provenance
+from .provenance import occ_face_area, shape_boxes, shape_provenance
+from .record_keys import area_key, record_digest
 from .reader_process import STAGE, ReaderProcess
 
 
@@ -106,19 +108,20 @@ def part_record(face, why, number, part):
                     patch_count=patch_count(face), occ_reference=reference, reason=why, data_digest=data_digest)
 
 
-def record_frames(path, faces, with_fields, display_deflection):
+def record_frames(path, faces, with_fields, display_deflection, cache=None):
     """In the reading process (reader_process): read path with FreeCAD and yield the three
-    frames of its records (see the module doc)."""
+    frames of its records (see the module doc); cache: the faces' store's choice
+    (result_store.open_store), where OpenCascade's face areas are kept."""
     import_freecad()
     t = time.perf_counter()
     inp = load_brep(path, faces, here=True)
     seconds = time.perf_counter() - t
     yield {STAGE: "describing the faces"}
-    for frame in _frames(inp, with_fields, display_deflection, seconds):
+    for frame in _frames(inp, with_fields, display_deflection, seconds, cache):
         yield frame
 
 
-def _frames(inp, with_fields, display_deflection, read_seconds):
+def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
     """The three frames of the records of a loaded BRepInput (see the module doc), each
     with what comes after it (reader_process.STAGE)."""
     boxes = shape_boxes(inp.shape, inp.faces)  # before any tessellation, as when read here
@@ -154,7 +157,37 @@ def _frames(inp, with_fields, display_deflection, read_seconds):
     if with_fields:
         deflection = display_deflection or DISPLAY_DEFLECTION * size
         display = [display_mesh(f, deflection) for _, f in inp.faces]
-    yield {FRAME: LateFrame(shape_provenance(inp.shape, inp.faces, None, boxes), display, deflection)}
+    areas, counts = face_areas(inp.faces, faces, cache)
+    provenance = shape_provenance(inp.shape, inp.faces, areas, boxes)
+    if counts is not None:
+        provenance["occ_areas_from_store"] = counts
+    yield {FRAME: LateFrame(provenance, display, deflection)}
+
+
+def face_areas(faces, records, cache):
+    """(OpenCascade's area of each face (provenance.occ_face_area; None where it has none),
+    {"hits", "misses"} of the faces' store or None without one): a face's area depends on
+    the face alone, so it is kept in the store under its record's digest
+    (face_keys.area_key) and taken from there when the face comes again."""
+    from ...core.result_store import open_store
+    try:
+        store, _ = open_store(cache, user_cache_folder())
+    except InputError:  # the parent reports a store that is not a folder
+        store = None
+    if store is None:
+        return [occ_face_area(f) for _, f in faces], None
+    occ = versions().get("OCC")
+    out = []
+    for (_, face), rec in zip(faces, records):
+        geometry = record_digest(rec)
+        key = None if geometry is None else area_key(geometry, occ)
+        got = store.get(key) if key is not None else None
+        if got is None:
+            got = ("area", occ_face_area(face))
+            if key is not None:
+                store.put(key, got)
+        out.append(got[1])
+    return out, {"hits": store.counts.hits, "misses": store.counts.misses}
 
 
 class ReadInChild:
@@ -170,12 +203,13 @@ class ReadInChild:
 
     FRAMES = 3
 
-    def __init__(self, path, faces=None, with_fields=True, display_deflection=None):
+    def __init__(self, path, faces=None, with_fields=True, display_deflection=None, cache=None):
         self.path, self.faces = path, faces
         self.with_fields, self.display_deflection = with_fields, display_deflection
+        self.cache = getattr(cache, "folder", cache)  # a ResultStore's folder, a folder, False or None
         self._frames = []
         self._child = ReaderProcess(path, (__name__, "record_frames"),
-                                    (path, faces, with_fields, display_deflection))
+                                    (path, faces, with_fields, display_deflection, self.cache))
 
     def faces_frame(self):
         """FacesFrame: the faces' records and the file's description."""

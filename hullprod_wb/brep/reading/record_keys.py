@@ -1,0 +1,23 @@
+"""Keys of a face's record (occ_records.FaceData) for the faces' store: its digest without
+its number, and the key of OpenCascade's area of the face (the reading process keeps it).
+
+Nothing here imports numpy: the reading side never loads it.
+"""
+from dataclasses import fields
+
+from ...core.exact_keys import derived_key, digest
+
+
+def record_digest(rec):
+    """Digest of a face's record (occ_records.FaceData) without its number and its index
+    among the faces sent (part); None for a face sent as OpenCascade's data whose data has
+    no digest."""
+    if rec.as_data and rec.data_digest is None:
+        return None
+    return digest([getattr(rec, f.name) for f in fields(rec) if f.name not in ("number", "part")])
+
+
+def area_key(geometry, occ_version):
+    """The store key of OpenCascade's area of a face of geometry digest geometry (the
+    reading process's provenance; the area depends on the face alone)."""
+    return derived_key(geometry, "occ_area", occ_version)
