@@ -14,6 +14,9 @@ import sys
 import tempfile
 import time
 
+# cold runs: every face integrated, none taken from a store of faces (core.result_store)
+os.environ["HULLPROD_FACE_CACHE"] = "off"
+
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 

@@ -30,6 +30,9 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from reference_venv import ensure_reference_venv  # noqa: E402
 
+# cold runs: every face integrated, none taken from a store of faces (core.result_store)
+os.environ["HULLPROD_FACE_CACHE"] = "off"
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 HULLS = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep"))
 #: L_ref per file (L_pp where the source gives it; else None: automatic).

@@ -50,7 +50,8 @@ else:
 def instructions(tree, path, lref, assess=True):
     """Instructions of one process (callgrind's Collected count)."""
     code = SCRIPT.format(tree=tree, path=path, lref=lref, assess=assess)
-    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    # cold: every face integrated, none taken from a store of faces (core.result_store)
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", HULLPROD_FACE_CACHE="off")
     p = subprocess.run(["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null",
                         "/usr/bin/python3", "-c", code], capture_output=True, text=True, env=env)
     m = re.search(r"Collected\s*:\s*(\d+)", p.stderr)

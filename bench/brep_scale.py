@@ -32,6 +32,9 @@ import sys
 import tempfile
 import time
 
+# cold runs: every face integrated, none taken from a store of faces (core.result_store)
+os.environ["HULLPROD_FACE_CACHE"] = "off"
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 KVLCC2 = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep", "kvlcc2_half_overture.igs"))
 GOOD = ("VALID", "VALID*")

@@ -27,6 +27,9 @@ ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 from brep_scale import KVLCC2, log, write_file  # noqa: E402 - after the path
 
+# cold runs: every face integrated, none taken from a store of faces (core.result_store)
+os.environ["HULLPROD_FACE_CACHE"] = "off"
+
 SCREEN = "-screen 0 1920x1200x24"
 
 

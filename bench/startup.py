@@ -4,11 +4,15 @@ the command's reading and worker processes included: getrusage(RUSAGE_CHILDREN))
 
 usage: /usr/bin/python3 bench/startup.py N ROOT_A ROOT_B -- analyze FILE [options]
 """
+import os
 import resource
 import statistics
 import subprocess
 import sys
 import time
+
+# cold runs: every face integrated, none taken from a store of faces (core.result_store)
+os.environ["HULLPROD_FACE_CACHE"] = "off"
 
 
 def main(argv):
