@@ -612,3 +612,27 @@ def test_threshold_study_row_equals_analyze(gui):
         assert row[m] == pytest.approx(rec["analysis"][m], rel=1e-9), m
     assert row["status"] == rec["analysis_status"]
     assert set(row["status"].values()) <= STATUSES
+
+
+def test_live_update_follows_the_source_in_the_background(gui, shots):
+    """AutoUpdate on: an edit and a recompute return at once, the update runs in the
+    background with the event loop ticking, and lands in place with the change of I_D and
+    only the edited face integrated again; off: the recompute marks the results out of date;
+    the source changed back: current again."""
+    rec = step(gui, "live_update")
+    assert rec["first_status"] == "ok" and rec["first_delta"] != rec["first_delta"]  # NaN: nothing before
+    assert rec["after_toggle"] == {"status": "ok", "I_D": rec["first_I_D"], "running": False}
+    assert rec["edit_recompute_s"] < 1.0 and rec["running"], rec
+    assert rec["status_after_edit"].startswith("updating")
+    assert rec["done"] and not rec["out_of_date"], rec
+    assert rec["max_gap"] < 1.0 and rec["ticks"] > 5, rec
+    assert rec["integrated"] == [5]  # the middle patch; the other eight from the store
+    assert rec["cache"]["hits"] == 8 and rec["cache"]["faces_from_store"] == [1, 2, 3, 4, 6, 7, 8, 9]
+    assert rec["delta"] == pytest.approx(rec["I_D"] - rec["first_I_D"], abs=1e-12) and rec["delta"] != 0
+    assert rec["change_line"].startswith("Change against the previous result: I_D ")
+    assert "Face5" in rec["change_line"] and "other 8 from the faces' store" in rec["change_line"]
+    off = rec["off"]
+    assert off["status"].startswith("out of date") and off["out_of_date"] and not off["running"]
+    assert off["I_D"] == rec["I_D"] and off["recompute_s"] < 1.0
+    assert rec["back"] == {"status": "ok", "out_of_date": False}
+    assert_not_blank(rec["png"])

@@ -43,6 +43,9 @@ PROPERTIES = [
      "BRep faces to assess, FreeCAD numbering (Face3 -> 3); empty: all faces", False),
     ("App::PropertyBool", "SkipPlanarFaces", "Source",
      "BRep: leave out planar faces (deck, transom, flat plates closing the shape)", False),
+    ("App::PropertyBool", "AutoUpdate", "Source",
+     "GUI: when the source changes, reassess it in the background (the faces that did not change come "
+     "from the faces' store); off: a recompute marks the results out of date", False),
     ("App::PropertyEnumeration", "LrefMode", "Parameters",
      "automatic: principal-axis span of the surface; explicit: LrefExplicit", False),
     ("App::PropertyFloat", "LrefExplicit", "Parameters",
@@ -79,6 +82,15 @@ PROPERTIES = [
     ("App::PropertyStringList", "Warnings", "Results", "warnings of the last run", True),
     ("App::PropertyFloat", "ComputeSeconds", "Results", "wall time of the last run", True),
     ("App::PropertyString", "ResultJSON", "Results", "the full JSON document of the last run", True),
+    ("App::PropertyBool", "OutOfDate", "Results", "the source changed since these results were computed", True),
+    ("App::PropertyFloat", "DeltaI_D", "Results",
+     "I_D of these results minus I_D of the ones before (NaN: none before, or not established)", True),
+    ("App::PropertyIntegerList", "FacesIntegrated", "Results",
+     "BRep faces integrated in the last run; the others came unchanged from the faces' store", True),
+    ("App::PropertyString", "SettingsUsed", "Results", "the settings of the last run (to tell a changed "
+     "source from changed settings)", True),
+    ("App::PropertyString", "SourceGeometry", "Results", "digest of the source's geometry at the last run "
+     "(GUI: to tell whether it changed since)", True),
     ("App::PropertyFileIncluded", "FieldsFile", "Results", "distributed fields of the last run (.npz)", True),
 ]
 for _m in METRICS:
@@ -90,7 +102,10 @@ for _m in METRICS:
     ]
 del _m
 
-HIDDEN = ("ResultJSON", "FieldsFile")
+HIDDEN = ("ResultJSON", "FieldsFile", "SettingsUsed", "SourceGeometry")
+#: Set by the GUI (gui.live_update): start(obj) reassesses obj in the background; None in
+#: console mode, where a recompute assesses at once.
+BACKGROUND = None
 
 
 def add_properties(obj):
@@ -164,6 +179,22 @@ class HullProdAnalysis:
             self.assessment = assessment
             store_results(obj, assessment, seconds)
             return
+        state = source_state(obj) if self.progress is None else None
+        if state == "same":  # in the GUI, nothing the results depend on has changed
+            if obj.OutOfDate:  # the source was changed back
+                obj.OutOfDate, obj.Status = False, STATUS_OK
+            return
+        if state == "changed":
+            # the source was edited, the settings were not: in the GUI the results are marked
+            # out of date, or (AutoUpdate) reassessed in the background; never blocking here
+            obj.OutOfDate = True
+            if obj.AutoUpdate and BACKGROUND is not None:
+                obj.Status = "updating: the source changed; reassessing it in the background"
+                BACKGROUND(obj)
+            else:
+                obj.Status = ("out of date: the source changed after these results (Analyze again, "
+                              "or set AutoUpdate)")
+            return
         progress = self.progress or RunProgress("HullProd: %s" % obj.Label)
         try:
             assessment, seconds = run_assessment(obj, progress)
@@ -185,6 +216,53 @@ class HullProdAnalysis:
 
     def onChanged(self, obj, prop):
         pass
+
+
+def settings_used(obj):
+    """The settings an analysis runs with, as text (compared with SettingsUsed)."""
+    rep = "mesh" if obj.Source is not None and not hasattr(obj.Source, "Shape") else "brep"
+    return json.dumps({"options": assessment_options(obj, rep), "faces": list(obj.Faces),
+                       "skip_planar": bool(getattr(obj, "SkipPlanarFaces", False))}, sort_keys=True)
+
+
+def source_geometry(source):
+    """Digest of a source's geometry, not of how FreeCAD stores it (an identity placement
+    stored or not): of each face's record (brep.face_keys.geometry_digest) or, for a face
+    the records do not describe, of its surface type, OpenCascade's values at the
+    cross-check points, parameter range, vertices and area; of a mesh, its placed vertices
+    and triangles."""
+    from ..core.exact_keys import digest
+    if not hasattr(source, "Shape"):
+        from .assessment_process import object_record
+        return object_record(source)["sha256"]
+    from ..brep.face_keys import geometry_digest
+    from ..brep.reading.occ_records import occ_reference
+    out = []
+    for face in source.Shape.Faces:
+        g = geometry_digest(face)
+        if g is None or face.Surface.__class__.__name__ not in ("BSplineSurface", "BezierSurface"):
+            g = digest([type(face.Surface).__name__, occ_reference(face), [float(x) for x in face.ParameterRange],
+                        [[float(c) for c in v.Point] for v in face.Vertexes], float(face.Area)])
+        out.append(g)
+    return digest(out)
+
+
+def source_state(obj):
+    """In the GUI, for an analysis with results of its current settings: "same" when its
+    source's geometry is as it was (its digest, InputSha256), "changed" when not; None
+    otherwise (no GUI, no results, other settings: the recompute assesses)."""
+    import FreeCAD
+    if not FreeCAD.GuiUp or not (obj.Status == STATUS_OK or obj.Status.startswith(("out of date", "updating"))):
+        return None
+    if not obj.ResultJSON or not obj.SourceGeometry or obj.SettingsUsed != settings_used(obj) or obj.Source is None:
+        return None
+    try:
+        same = source_geometry(obj.Source) == obj.SourceGeometry
+    except Exception:  # a source OpenCascade cannot describe now: the assessment says why
+        return None
+    if same and obj.Status.startswith("updating"):  # changed back while an update runs: it goes on
+        return "changed"
+    return "same" if same else "changed"
 
 
 def assessed_faces(obj):
@@ -256,8 +334,17 @@ def _num(x):
 
 
 def store_results(obj, a, seconds=0.0):
-    """Copy an Assessment into obj's output properties (the JSON document included)."""
+    """Copy an Assessment into obj's output properties (the JSON document included), with
+    the change of I_D against the results before and the faces integrated anew."""
     doc = a.to_dict()
+    before = obj.I_D if obj.ResultJSON else float("nan")
+    new = _num(a.validity["I_D"].value)
+    obj.DeltaI_D = new - before if math.isfinite(before) and math.isfinite(new) else float("nan")
+    cache = a.provenance.get("cache") or {}
+    stored = set(cache.get("faces_from_store") or [])
+    obj.FacesIntegrated = [int(r["face"]) for r in (a.provenance.get("faces") or [])
+                           if isinstance(r, dict) and "face" in r and r["face"] not in stored]
+    obj.OutOfDate = False
     rl = a.reference_length
     obj.Representation = str(a.input.get("representation") or "")
     obj.Backend = str(a.provenance.get("backend") or obj.Representation)
@@ -290,6 +377,13 @@ def store_results(obj, a, seconds=0.0):
             obj.FieldsFile = save_fields(a.fields, os.path.join(folder, "fields.npz"))
         finally:
             shutil.rmtree(folder, ignore_errors=True)
+    obj.SettingsUsed = settings_used(obj)
+    import FreeCAD
+    if FreeCAD.GuiUp and obj.Source is not None:
+        try:
+            obj.SourceGeometry = source_geometry(obj.Source)
+        except Exception:  # a source OpenCascade cannot describe: every recompute assesses it
+            obj.SourceGeometry = ""
     obj.Status = STATUS_OK
 
 

@@ -57,6 +57,21 @@ def _fill_tree(parent, value):
             _fill_tree(node, val)
 
 
+
+def change_line(obj):
+    """The change of the last run against the one before: delta I_D and the faces
+    integrated again (the others came from the faces' store); "" before a second run."""
+    delta = getattr(obj, "DeltaI_D", float("nan"))
+    if delta != delta:  # NaN: no result before, or I_D not established in one of them
+        return ""
+    faces = list(getattr(obj, "FacesIntegrated", []) or [])
+    used = list(getattr(obj, "FacesUsed", []) or [])
+    again = ("every face integrated" if used and len(faces) >= len(used) else
+             "integrated again: %s; the other %d from the faces' store"
+             % (", ".join("Face%d" % f for f in faces[:8]) + (" ..." if len(faces) > 8 else "") or "none",
+                max(len(used) - len(faces), 0)))
+    return "Change against the previous result: I_D %+.4g (%s)" % (delta, again)
+
 class ValidityPanel(CloseOnlyPanel):
     """Task panel: signature table, provenance, per-face table, colour maps, JSON."""
 
@@ -94,6 +109,9 @@ class ValidityPanel(CloseOnlyPanel):
                     th["h_f"], th["k_f"], th["tau_H"], th["tau_K"]))
         if o.Status != "ok":
             text += "<br><span style='color:#c0392b'>%s</span>" % o.Status
+        change = change_line(o)
+        if change:
+            text += "<br>" + change
         if rl.get("plausibility_warning"):
             text += "<br><span style='color:#d4a017'>%s</span>" % rl["plausibility_warning"]
         lab = QtWidgets.QLabel(text)

@@ -93,6 +93,8 @@ class ViewProviderHullProdAnalysis:
     # -- Coin graph ---------------------------------------------------------------------------
     def attach(self, vobj):
         from pivy import coin
+        from . import live_update
+        live_update.install()  # a recompute of an AutoUpdate analysis reassesses it in the background
         self._add_properties(vobj)  # a document saved before a property existed
         self.ViewObject = vobj
         self.Object = vobj.Object
@@ -242,6 +244,8 @@ class ViewProviderHullProdAnalysis:
         """Show the source again when its last analysis goes (Analyze may have hidden it);
         the colour bar moves to an analysis still shown."""
         obj = vobj.Object
+        from . import live_update
+        live_update.cancel(obj)
         legend_mod.legend_after_removal(obj)
         src = getattr(obj, "Source", None)
         if src is not None and getattr(src, "ViewObject", None) is not None:

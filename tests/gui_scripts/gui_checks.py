@@ -1455,4 +1455,87 @@ def _():
     FreeCAD.closeDocument(doc.Name)
     return out
 
+
+def bezier_patches(bump=0.0, n=3):
+    """n x n bicubic Bezier patches of a smooth hull-like surface, the middle patch's pole
+    (2, 2) moved up by bump (the shape of tests/test_face_store.patches)."""
+    import Part
+    from hullprod_wb.examples.analytic_shapes import bezier_face
+    faces = []
+    for k in range(n * n):
+        i, j = divmod(k, n)
+        u = (i + np.linspace(0.0, 1.0, 4))[:, None] / n
+        v = (j + np.linspace(0.0, 1.0, 4))[None, :] / n
+        P = np.zeros((4, 4, 3))
+        P[..., 0], P[..., 1] = 4.0 * u, 1.0 * v + 0 * u
+        P[..., 2] = 0.3 * np.sin(2.5 * u) * np.cos(1.7 * v) + 0.1 * (u * v) ** 2
+        if k == n * n // 2:
+            P[2, 2, 2] += bump
+        faces.append(bezier_face(P))
+    return Part.Compound(faces)
+
+
+@step("live_update")
+def _():
+    """AutoUpdate on: an edit of the source (its shape replaced by one with a pole moved)
+    and a recompute start a background update; the event loop keeps ticking; the result
+    lands in place with the change of I_D and the faces integrated again. AutoUpdate off: the
+    recompute only marks the results out of date."""
+    from hullprod_wb.gui import live_update
+    from hullprod_wb.gui.validity_panel import change_line
+    os.environ["HULLPROD_FACE_CACHE"] = os.path.join(WORK, "face_store")  # this check's own store
+    doc = FreeCAD.newDocument("LiveUpdate")
+    src = doc.addObject("Part::Feature", "Patches")
+    src.Shape = bezier_patches()
+    doc.recompute()
+    a = hullprod_wb.make_analysis(src, lref=4.0)
+    out = {"first_status": a.Status, "first_I_D": a.I_D, "first_delta": a.DeltaI_D}
+    a.AutoUpdate = True
+    t = time.perf_counter()
+    doc.recompute()
+    out["toggle_recompute_s"] = time.perf_counter() - t
+    out["after_toggle"] = {"status": a.Status, "I_D": a.I_D, "running": a.Name in live_update.RUNNING}
+    src.Shape = bezier_patches(0.05)
+    ticks = []
+    clock = QtCore.QTimer()
+    clock.setInterval(20)
+    clock.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    clock.start()
+    t = time.perf_counter()
+    doc.recompute()
+    out["edit_recompute_s"] = time.perf_counter() - t
+    out["status_after_edit"] = a.Status
+    out["running"] = a.Name in live_update.RUNNING
+    statuses = set()
+    done = wait_for(lambda: statuses.add(a.Status.split(":")[0]) or a.Status == "ok", 120)
+    out["update_s"] = time.perf_counter() - t
+    clock.stop()
+    gaps = [b - c for c, b in zip(ticks, ticks[1:])]
+    out.update(done=done, statuses=sorted(statuses), max_gap=max(gaps) if gaps else None, ticks=len(ticks),
+               I_D=a.I_D, delta=a.DeltaI_D, integrated=list(a.FacesIntegrated), out_of_date=a.OutOfDate,
+               cache=json.loads(a.ResultJSON)["provenance"]["cache"], change_line=change_line(a))
+    a.ViewObject.Visibility = True
+    src.ViewObject.Visibility = False  # the map alone (the source's own tessellation would show through)
+    view().viewIsometric()
+    view().fitAll()
+    from hullprod_wb.gui.validity_panel import show_validity_panel
+    show_validity_panel(a)
+    process(300)
+    out["png"] = screen_shot("live_update")
+    FreeCADGui.Control.closeDialog()
+    a.AutoUpdate = False
+    doc.recompute()
+    src.Shape = bezier_patches(0.1)
+    t = time.perf_counter()
+    doc.recompute()
+    out["off"] = {"recompute_s": time.perf_counter() - t, "status": a.Status, "I_D": a.I_D,
+                  "out_of_date": a.OutOfDate, "running": a.Name in live_update.RUNNING}
+    src.Shape = bezier_patches(0.05)  # back as it was: the results are current again
+    doc.recompute()
+    out["back"] = {"status": a.Status, "out_of_date": a.OutOfDate}
+
+    os.environ["HULLPROD_FACE_CACHE"] = "off"
+    FreeCAD.closeDocument(doc.Name)
+    return out
+
 finish()
