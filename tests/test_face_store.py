@@ -244,6 +244,8 @@ def test_a_warm_run_equals_a_cold_one_bit_for_bit(tmp_path):
     # the reading process keeps OpenCascade's face areas there too
     assert cold["provenance"]["cache"]["occ_areas_from_store"] == {"hits": 0, "misses": 9}
     assert c["occ_areas_from_store"] == {"hits": 9, "misses": 0}
+    assert cold["provenance"]["cache"]["edge_reports_from_store"] == {"hits": 0, "misses": 9}
+    assert c["edge_reports_from_store"] == {"hits": 9, "misses": 0}
     assert comparable(warm) == comparable(cold)
     assert comparable(analyze(path, None)) == comparable(cold)  # the store changes nothing
 
@@ -261,6 +263,8 @@ def test_changed_faces_are_integrated_again_and_the_rest_reused(tmp_path):
         assert c["written"] == len(changed)
         cold = analyze(path, None)
         assert comparable(inc) == comparable(cold), name
+        # the edited faces' parts of the edge report, and their neighbours', are made again
+        assert inc["provenance"]["cache"]["edge_reports_from_store"]["misses"] >= len(changed), name
         assert inc["signature"]["I_D"] != base["signature"]["I_D"]
 
 
@@ -298,7 +302,7 @@ def test_a_damaged_entry_in_an_assessment_is_recomputed(tmp_path):
     store = tmp_path / "store"
     cold = analyze(path, store)
     entries = sorted(os.path.join(d, f) for d, _, fs in os.walk(store) for f in fs if f.endswith(".entry"))
-    assert len(entries) == 18  # nine faces' results and nine areas
+    assert len(entries) == 27  # nine faces' results, areas and parts of the edge report
     with open(max(entries, key=os.path.getsize), "r+b") as fh:  # a face's result
         fh.seek(-20, os.SEEK_END)
         fh.write(b"\0" * 8)

@@ -8,6 +8,7 @@ import math
 from collections import Counter
 
 from .occ_records import linspace
+from .record_keys import edges_key
 
 #: Normals on the two sides of a shared edge differing by more than this are a C0 crease.
 CREASE_ANGLE_DEG = 1.0
@@ -118,7 +119,7 @@ def shape_boxes(shape, faces):
     return shape.BoundBox, [f.BoundBox for _, f in faces], [[e.BoundBox for e in f.Edges] for _, f in faces]
 
 
-def edge_report(shape, faces, boxes=None):
+def edge_report(shape, faces, boxes=None, store=None, digests=None):
     """Free and shared boundary edges of the assessed faces, with continuity across them.
 
     A face's boundary edge is shared when sample points along it lie on boundary edges of
@@ -126,13 +127,15 @@ def edge_report(shape, faces, boxes=None):
     IGES faces and T-junctions of edges alike. Shared lengths count each shared curve once
     (half the sum over the two sides). Normals of the two faces differing by more than
     CREASE_ANGLE_DEG at any sample make a C0 crease (normals from the edges' p-curves).
+    Each face's part (_face_edges) is summed in the faces' order. With a result store
+    (core.result_store) and each face's digest of its OpenCascade data (digests, taken
+    before any tessellation), a face's part is kept under a key of its digest, its number,
+    the tolerance and the numbers and digests of the faces whose boxes hold its edges' first
+    points (every face its part can depend on), and taken from the store when they recur.
     """
     shape_bb, face_bbs, edge_bbs = boxes or shape_boxes(shape, faces)
     size = max(shape_bb.DiagonalLength, 1e-300)
     tol = 1e-5 * size
-    n_free = n_shared = 0
-    free_len = shared_len = crease_len = 0.0
-    creases = {}
     boxes = []
     for (number, face), bb, ebbs in zip(faces, face_bbs, edge_bbs):
         edges = []
@@ -141,45 +144,81 @@ def edge_report(shape, faces, boxes=None):
                 edges.append((e, _enlarged(ebb, tol)))
         boxes.append((number, face, _enlarged(bb, tol), edges))
     index = BoxIndex([_bounds(b[2]) for b in boxes])
-    for number, face, _, edges in boxes:
-        for edge, _ in edges:  # degenerated edges (collapsed sides of a patch) are left out
-            ts = _edge_params(edge)
-            pts = [edge.valueAt(t) for t in ts]
-            partner = None
-            # the faces in the order given, among those whose box may hold the first point
-            for other, oface, bb, oedges in (boxes[i] for i in index.near(pts[0])):
-                if other == number or not all(bb.isInside(p) for p in pts):
-                    continue
-                hits = []
-                for p in pts:
-                    hit = _on_edges(p, oedges, tol)
-                    if hit is None:
-                        break
-                    hits.append(hit)
-                if len(hits) == len(pts):
-                    partner = (other, oface, hits)
-                    break
-            if partner is None:
-                n_free += 1
-                free_len += edge.Length
+    total = {"n_free": 0, "free_len": 0.0, "n_shared": 0, "shared_len": 0.0, "crease_len": 0.0}
+    creases = {}
+    for k in range(len(boxes)):
+        part = _stored_face_edges(k, boxes, index, tol, store, digests)
+        for name in total:
+            total[name] += part[name]
+        for a, b, length, angle in part["creases"]:
+            rec = creases.setdefault((a, b), {"faces": [a, b], "length": 0.0, "max_normal_angle_deg": 0.0})
+            rec["length"] += length
+            rec["max_normal_angle_deg"] = max(rec["max_normal_angle_deg"], angle)
+    return {"free_edges": total["n_free"], "free_edge_length": total["free_len"],
+            "shared_edge_sides": total["n_shared"], "shared_edge_length": total["shared_len"],
+            "c0_crease_face_pairs": len(creases), "c0_crease_length": total["crease_len"],
+            "crease_angle_threshold_deg": CREASE_ANGLE_DEG, "creases": list(creases.values())}
+
+
+def _stored_face_edges(k, boxes, index, tol, store, digests):
+    """_face_edges of face k, from the store when its key is there (see edge_report)."""
+    number, _, _, edges = boxes[k]
+    samples = [(edge, _edge_params(edge)) for edge, _ in edges]
+    samples = [(edge, ts, [edge.valueAt(t) for t in ts]) for edge, ts in samples]
+    key = None
+    if store is not None and digests is not None and digests[k] is not None:
+        near = sorted({i for _, _, pts in samples for i in index.near(pts[0]) if boxes[i][2].isInside(pts[0])})
+        if all(digests[i] is not None for i in near):
+            key = edges_key(digests[k], number, tol, [(boxes[i][0], digests[i]) for i in near])
+    part = store.get(key) if key is not None else None
+    if part is None:
+        part = _face_edges(k, samples, boxes, index, tol)
+        if key is not None:
+            store.put(key, part)
+    return part
+
+
+def _face_edges(k, samples, boxes, index, tol):
+    """Face k's part of the edge report: free and shared edge counts and lengths, and its
+    creases [face, partner (the lower number first), length, largest normal angle];
+    samples: (edge, parameters, points) of its edges."""
+    number, face, _, _ = boxes[k]
+    part = {"n_free": 0, "free_len": 0.0, "n_shared": 0, "shared_len": 0.0, "crease_len": 0.0}
+    creases = {}
+    for edge, ts, pts in samples:  # degenerated edges (collapsed sides of a patch) are left out
+        partner = None
+        # the faces in the order given, among those whose box may hold the first point
+        for other, oface, bb, oedges in (boxes[i] for i in index.near(pts[0])):
+            if other == number or not all(bb.isInside(p) for p in pts):
                 continue
-            n_shared += 1
-            shared_len += 0.5 * edge.Length
-            mine = _normals_on_edge(face, edge, ts, pts)
-            theirs = [_normals_on_edge(partner[1], oe, [ot], [p])[0] for (oe, ot), p in zip(partner[2], pts)]
-            angles = [math.degrees(math.acos(min(1.0, abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]))))
-                      for a, b in zip(mine, theirs) if a is not None and b is not None]
-            max_angle = max(angles) if angles else None
-            if max_angle is not None and max_angle > CREASE_ANGLE_DEG:
-                key = tuple(sorted((number, partner[0])))
-                rec = creases.setdefault(key, {"faces": list(key), "length": 0.0, "max_normal_angle_deg": 0.0})
-                rec["length"] += 0.5 * edge.Length
-                rec["max_normal_angle_deg"] = max(rec["max_normal_angle_deg"], max_angle)
-                crease_len += 0.5 * edge.Length
-    return {"free_edges": n_free, "free_edge_length": free_len, "shared_edge_sides": n_shared,
-            "shared_edge_length": shared_len, "c0_crease_face_pairs": len(creases),
-            "c0_crease_length": crease_len, "crease_angle_threshold_deg": CREASE_ANGLE_DEG,
-            "creases": list(creases.values())}
+            hits = []
+            for p in pts:
+                hit = _on_edges(p, oedges, tol)
+                if hit is None:
+                    break
+                hits.append(hit)
+            if len(hits) == len(pts):
+                partner = (other, oface, hits)
+                break
+        if partner is None:
+            part["n_free"] += 1
+            part["free_len"] += edge.Length
+            continue
+        part["n_shared"] += 1
+        part["shared_len"] += 0.5 * edge.Length
+        mine = _normals_on_edge(face, edge, ts, pts)
+        theirs = [_normals_on_edge(partner[1], oe, [ot], [p])[0] for (oe, ot), p in zip(partner[2], pts)]
+        angles = [math.degrees(math.acos(min(1.0, abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]))))
+                  for a, b in zip(mine, theirs) if a is not None and b is not None]
+        max_angle = max(angles) if angles else None
+        if max_angle is not None and max_angle > CREASE_ANGLE_DEG:
+            pair = tuple(sorted((number, partner[0])))
+            rec = creases.setdefault(pair, [pair[0], pair[1], 0.0, 0.0])
+            rec[2] += 0.5 * edge.Length
+            rec[3] = max(rec[3], max_angle)
+            part["crease_len"] += 0.5 * edge.Length
+    part["creases"] = list(creases.values())
+    return part
 
 
 def hull_side(shape, rel_tol=1e-4, bb=None):
@@ -213,12 +252,12 @@ def surface_type_name(face):
         return "no surface"
 
 
-def shape_provenance(shape, faces, areas=None, boxes=None):
+def shape_provenance(shape, faces, areas=None, boxes=None, store=None, digests=None):
     """Provenance dict of the assessed faces of shape (faces: list of (number, Part.Face);
     areas: their OpenCascade areas when already known, None for a face whose area
     OpenCascade cannot compute; boxes: shape_boxes taken before any tessellation, else
     taken now). occ_area sums the faces whose area OpenCascade gives; the others are
-    listed in occ_area_failed_faces."""
+    listed in occ_area_failed_faces. store, digests: edge_report's."""
     types = Counter(surface_type_name(f) for _, f in faces)
     areas = [occ_face_area(f) for _, f in faces] if areas is None else list(areas)
     failed = [n for (n, _), a in zip(faces, areas) if a is None]
@@ -237,14 +276,14 @@ def shape_provenance(shape, faces, areas=None, boxes=None):
         "bounding_box": {"xmin": bb.XMin, "xmax": bb.XMax, "ymin": bb.YMin, "ymax": bb.YMax,
                          "zmin": bb.ZMin, "zmax": bb.ZMax},
         "hull_side": hull_side(shape, bb=bb),
-        "edges": safe_edge_report(shape, faces, boxes),
+        "edges": safe_edge_report(shape, faces, boxes, store, digests),
     }
 
 
-def safe_edge_report(shape, faces, boxes):
+def safe_edge_report(shape, faces, boxes, store=None, digests=None):
     """edge_report, or the reason it could not be made (a face whose edges or box
     OpenCascade cannot give, e.g. of non-finite geometry)."""
     try:
-        return edge_report(shape, faces, boxes)
+        return edge_report(shape, faces, boxes, store, digests)
     except Exception as exc:  # OpenCascade raises on invalid (non-finite) boxes and edges
         return {"not_evaluated": "%s: %s" % (type(exc).__name__, " ".join(str(exc).split()))}

@@ -1,5 +1,6 @@
 """Keys of a face's record (occ_records.FaceData) for the faces' store: its digest without
-its number, and the key of OpenCascade's area of the face (the reading process keeps it).
+its number, and the keys of what the reading process keeps there: OpenCascade's area of the
+face and the face's part of the edge report (provenance.edge_report).
 
 Nothing here imports numpy: the reading side never loads it.
 """
@@ -21,3 +22,10 @@ def area_key(geometry, occ_version):
     """The store key of OpenCascade's area of a face of geometry digest geometry (the
     reading process's provenance; the area depends on the face alone)."""
     return derived_key(geometry, "occ_area", occ_version)
+
+
+def edges_key(data_digest, number, tol, near):
+    """The store key of a face's part of the edge report: the digest of its OpenCascade data
+    (data_digest), its number, the tolerance, and near, [(number, data digest)] of the faces
+    whose boxes hold its edges' first points."""
+    return derived_key(data_digest, "edges", number, tol, [[n, d] for n, d in near])

@@ -31,7 +31,7 @@ from typing import Optional
 
 from ...core.errors import InputError
 from ...freecad_env import import_freecad, user_cache_folder, versions
-from .loading import faces_to_bytes, load_brep
+from .loading import faces_to_bytes, load_brep, shape_to_bytes
 from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
 from .occ_records import (CROSS_CHECK_POINTS, DISPLAY_DEFLECTION, FaceData, display_mesh, face_record,
                           occ_reference, patch_count)
@@ -138,6 +138,9 @@ def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
         else:
             described.append(face)
         faces.append(rec)
+    store = reading_store(cache)
+    # the faces' own data, before any tessellation adds to it: their keys in the store
+    digests = [hashlib.sha256(shape_to_bytes(f)).hexdigest() for _, f in inp.faces] if store is not None else None
     # the records first: the parent sets the faces up while the tessellation runs here
     yield {FRAME: FacesFrame(inp.info, inp.units, faces, size, versions(), read_seconds,
                              faces_to_bytes(as_data) if as_data else None, user_cache_folder()),
@@ -157,25 +160,32 @@ def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
     if with_fields:
         deflection = display_deflection or DISPLAY_DEFLECTION * size
         display = [display_mesh(f, deflection) for _, f in inp.faces]
-    areas, counts = face_areas(inp.faces, faces, cache)
-    provenance = shape_provenance(inp.shape, inp.faces, areas, boxes)
-    if counts is not None:
-        provenance["occ_areas_from_store"] = counts
+    areas = face_areas(inp.faces, faces, store)
+    counted = None if store is None else (store.counts.hits, store.counts.misses)
+    provenance = shape_provenance(inp.shape, inp.faces, areas, boxes, store, digests)
+    if store is not None:
+        provenance["occ_areas_from_store"] = {"hits": counted[0], "misses": counted[1]}
+        provenance["edge_reports_from_store"] = {"hits": store.counts.hits - counted[0],
+                                                 "misses": store.counts.misses - counted[1]}
     yield {FRAME: LateFrame(provenance, display, deflection)}
 
 
-def face_areas(faces, records, cache):
-    """(OpenCascade's area of each face (provenance.occ_face_area; None where it has none),
-    {"hits", "misses"} of the faces' store or None without one): a face's area depends on
-    the face alone, so it is kept in the store under its record's digest
-    (face_keys.area_key) and taken from there when the face comes again."""
+def reading_store(cache):
+    """The faces' store of the reading process (result_store.open_store of the parent's
+    choice), or None."""
     from ...core.result_store import open_store
     try:
-        store, _ = open_store(cache, user_cache_folder())
+        return open_store(cache, user_cache_folder())[0]
     except InputError:  # the parent reports a store that is not a folder
-        store = None
+        return None
+
+
+def face_areas(faces, records, store):
+    """OpenCascade's area of each face (provenance.occ_face_area; None where it has none): a
+    face's area depends on the face alone, so with a store it is kept there under its
+    record's digest (record_keys.area_key) and taken from there when the face comes again."""
     if store is None:
-        return [occ_face_area(f) for _, f in faces], None
+        return [occ_face_area(f) for _, f in faces]
     occ = versions().get("OCC")
     out = []
     for (_, face), rec in zip(faces, records):
@@ -187,7 +197,7 @@ def face_areas(faces, records, cache):
             if key is not None:
                 store.put(key, got)
         out.append(got[1])
-    return out, {"hits": store.counts.hits, "misses": store.counts.misses}
+    return out
 
 
 class ReadInChild:
