@@ -50,8 +50,12 @@ def changed_face(faces):
             full = abs(uv_face(f).Area - (u1 - u0) * (v1 - v0)) <= 1e-9 * (u1 - u0) * (v1 - v0)
         except Exception:  # noqa: BLE001 - a domain OpenCascade cannot rebuild: not a candidate
             full = False
+        try:
+            area = f.Area
+        except Exception:  # noqa: BLE001 - OpenCascade cannot give its area: not a candidate
+            continue
         if full:
-            cand.append((f.Area, i))
+            cand.append((area, i))
     if not cand:
         raise SystemExit("no untrimmed B-spline face with interior poles to change")
     cand.sort()
@@ -84,7 +88,12 @@ def write_variants(path, folder, n):
         out = list(faces)
         out[k] = moved(faces[k], v * step)
         Part.Compound(out).exportBrep(os.path.join(folder, "variant_%d.brep" % v))
-    return k + 1, faces[k].Area / sum(f.Area for f in faces)
+    def area(f):
+        try:
+            return f.Area
+        except Exception:  # noqa: BLE001 - a face OpenCascade gives no area: none counted
+            return 0.0
+    return k + 1, area(faces[k]) / sum(area(f) for f in faces)
 
 
 def run(path, store):

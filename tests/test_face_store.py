@@ -358,3 +358,48 @@ def test_the_command_refuses_contradicting_store_options(tmp_path):
     p = subprocess.run([sys.executable, "-m", "hullprod_wb.cli", "analyze", "x.igs", "--cache", str(tmp_path),
                         "--no-cache"], capture_output=True, text=True, cwd=ROOT)
     assert p.returncode == 2 and "contradict" in p.stderr
+
+
+def _fields(a):
+    f = a.fields
+    return [f.points, f.triangles, f.K, f.H, f.valid] + [f.extra[k] for k in sorted(f.extra)]
+
+
+@needs_freecad
+def test_display_meshes_of_a_sewn_shape_come_back_as_a_cold_run_makes_them(tmp_path):
+    """Faces sharing edges: the edited face and the faces sharing an edge with it are meshed
+    again, their earlier neighbours first, and every field array equals a cold run's."""
+    import Part
+    from hullprod_wb import api
+    sewn = Part.Shell(patches())
+    sewn.sewShape()
+    faces = list(sewn.Faces)
+    base = write_shape(tmp_path / "base.brep", faces)
+    bumped = patches([(4, 0.02)])[4]
+    edited = write_shape(tmp_path / "edited.brep", faces[:4] + [bumped] + faces[5:])
+    store = str(tmp_path / "store")
+    kw = dict(lref=4.0, jobs=1)
+    cold = api.assess(base, cache=store, **kw)
+    assert cold.provenance["cache"]["display_meshes_from_store"] == {"hits": 0, "misses": 9}
+    warm = api.assess(base, cache=store, **kw)
+    assert warm.provenance["cache"]["display_meshes_from_store"] == {"hits": 9, "misses": 0}
+    for x, y in zip(_fields(warm), _fields(cold)):
+        assert x.shape == y.shape and np.array_equal(x, y, equal_nan=True)
+    inc = api.assess(edited, cache=store, **kw)
+    fresh = api.assess(edited, cache=False, **kw)
+    assert 1 < inc.provenance["cache"]["display_meshes_from_store"]["misses"] < 9  # it and its neighbours
+    for x, y in zip(_fields(inc), _fields(fresh)):
+        assert x.shape == y.shape and np.array_equal(x, y, equal_nan=True)
+    assert inc.signature == fresh.signature
+
+
+@needs_freecad
+def test_faces_sharing_edges_are_neighbours():
+    from hullprod_wb.freecad_env import import_freecad
+    import_freecad()
+    import Part
+    from hullprod_wb.brep.reading.record_reader import edge_neighbours
+    box = Part.makeBox(1, 1, 1)
+    n = edge_neighbours(box.Faces)
+    assert [len(x) for x in n] == [4] * 6 and all(k not in x for k, x in enumerate(n))
+    assert edge_neighbours([f.copy() for f in box.Faces]) == [[] for _ in range(6)]  # copies share nothing

@@ -390,11 +390,11 @@ class BrepRun:
     def store_record(self):
         """provenance.cache: the store's folder and where it comes from, its counts this run
         (result_store.StoreCounts), the faces whose results came from it and those it cannot
-        hold (no exact key), the reading process's lookups of OpenCascade's face areas and of
-        the faces' parts of the edge report; the least recently used entries pruned beyond
-        its bound."""
-        areas = self.provenance.pop("occ_areas_from_store", None)  # the reading process's lookups
-        edges = self.provenance.pop("edge_reports_from_store", None)
+        hold (no exact key), the reading process's lookups of the display meshes, OpenCascade's
+        face areas and the faces' parts of the edge report; the least recently used entries
+        pruned beyond its bound."""
+        reading = {k: self.provenance.pop(k, None)  # the reading process's lookups
+                   for k in ("display_meshes_from_store", "occ_areas_from_store", "edge_reports_from_store")}
         if self.store is None:
             return {"enabled": False, "source": self.store_source}
         if self.store.counts.written:
@@ -403,7 +403,7 @@ class BrepRun:
                 "max_bytes": self.store.max_bytes, **self.store.counts.to_dict(),
                 "faces_from_store": sorted(set(self.from_store)),
                 "faces_without_key": [n for (n, _), g in zip(self.shape.faces, self.geometry) if g is None],
-                "occ_areas_from_store": areas, "edge_reports_from_store": edges}
+                **reading}
 
     def face_provenance(self, results, rows, validity):
         """The provenance's units, per-face records (rows), the faces on which the curvature

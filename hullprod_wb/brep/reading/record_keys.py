@@ -1,6 +1,6 @@
 """Keys of a face's record (occ_records.FaceData) for the faces' store: its digest without
 its number, and the keys of what the reading process keeps there: OpenCascade's area of the
-face and the face's part of the edge report (provenance.edge_report).
+face, the face's part of the edge report (provenance.edge_report) and its display mesh.
 
 Nothing here imports numpy: the reading side never loads it.
 """
@@ -29,3 +29,11 @@ def edges_key(data_digest, number, tol, near):
     (data_digest), its number, the tolerance, and near, [(number, data digest)] of the faces
     whose boxes hold its edges' first points."""
     return derived_key(data_digest, "edges", number, tol, [[n, d] for n, d in near])
+
+
+def display_key(data_digest, deflection, lref_deflection, occ_version, near):
+    """The store key of a face's display mesh (record_reader.display_meshes): the digest of
+    its OpenCascade data, the display and automatic-L_ref deflections, OpenCascade's
+    version, and near, [(whether it comes before the face, data digest)] of the faces that
+    share an edge with it."""
+    return derived_key(data_digest, "display", deflection, lref_deflection, occ_version, [[b, d] for b, d in near])

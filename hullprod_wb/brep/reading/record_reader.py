@@ -26,6 +26,7 @@ Nothing here imports numpy: the reading side never loads it.
 import hashlib
 import os
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Optional
 
@@ -157,17 +158,78 @@ def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
     except OSError:
         pass
     display = deflection = None
+    lookups = StoreLookups(store)
     if with_fields:
         deflection = display_deflection or DISPLAY_DEFLECTION * size
-        display = [display_mesh(f, deflection) for _, f in inp.faces]
-    areas = face_areas(inp.faces, faces, store)
-    counted = None if store is None else (store.counts.hits, store.counts.misses)
-    provenance = shape_provenance(inp.shape, inp.faces, areas, boxes, store, digests)
-    if store is not None:
-        provenance["occ_areas_from_store"] = {"hits": counted[0], "misses": counted[1]}
-        provenance["edge_reports_from_store"] = {"hits": store.counts.hits - counted[0],
-                                                 "misses": store.counts.misses - counted[1]}
+        with lookups("display_meshes_from_store"):
+            display = display_meshes([f for _, f in inp.faces], deflection, SAMPLE_DEFLECTION * size, store, digests)
+    with lookups("occ_areas_from_store"):
+        areas = face_areas(inp.faces, faces, store)
+    with lookups("edge_reports_from_store"):
+        provenance = shape_provenance(inp.shape, inp.faces, areas, boxes, store, digests)
+    provenance.update(lookups.record)
     yield {FRAME: LateFrame(provenance, display, deflection)}
+
+
+def display_meshes(faces, deflection, lref_deflection, store=None, digests=None):
+    """occ_records.display_mesh of each face, in order. With a store and each face's digest
+    of its OpenCascade data (taken before any tessellation), a face's mesh is kept there
+    under a key of its digest, the two deflections (the automatic-L_ref tessellation's,
+    lref_deflection, came first) and the digests of the faces sharing an edge with it, with
+    whether each comes before it (record_keys.display_key): OpenCascade meshes a shared edge
+    once for the faces that share it, so a face's mesh depends on them and on their order,
+    and on nothing else. A face meshed here has its earlier neighbours meshed first, as a
+    run without the store does, so its mesh is the one that run makes."""
+    if store is None or digests is None:
+        return [display_mesh(f, deflection) for f in faces]
+    from .record_keys import display_key
+    neighbours = edge_neighbours(faces)
+    occ = versions().get("OCC")
+    meshed, out = [False] * len(faces), []
+    for k, face in enumerate(faces):
+        near = [(i < k, digests[i]) for i in neighbours[k]]
+        key = display_key(digests[k], deflection, lref_deflection, occ, near)
+        got = store.get(key)
+        if got is None:
+            for i in neighbours[k]:
+                if i < k and not meshed[i]:
+                    display_mesh(faces[i], deflection)  # its shared edges as a run without the store has them
+                    meshed[i] = True
+            got = display_mesh(face, deflection)
+            meshed[k] = True
+            store.put(key, got)
+        out.append(got)
+    return out
+
+
+def edge_neighbours(faces):
+    """For each face, the indices of the other faces that share an edge with it (the same
+    OpenCascade edge, Shape.isSame), ascending."""
+    by_hash, out = {}, [set() for _ in faces]
+    for k, face in enumerate(faces):
+        for e in face.Edges:
+            for i, other in by_hash.setdefault(e.hashCode(), []):
+                if i != k and other.isSame(e):
+                    out[k].add(i)
+                    out[i].add(k)
+            by_hash[e.hashCode()].append((k, e))
+    return [sorted(n) for n in out]
+
+
+class StoreLookups:
+    """with lookups(name): the store's hits and misses in the block, as record[name]
+    ({"hits", "misses"}; nothing without a store)."""
+
+    def __init__(self, store):
+        self.store, self.record = store, {}
+
+    @contextmanager
+    def __call__(self, name):
+        c = self.store.counts if self.store is not None else None
+        before = (c.hits, c.misses) if c is not None else None
+        yield
+        if c is not None:
+            self.record[name] = {"hits": c.hits - before[0], "misses": c.misses - before[1]}
 
 
 def reading_store(cache):
