@@ -6,11 +6,12 @@ that its p-curves stay exact; the face rebuilt on the moved surface over the sam
 box). The hull's faces are written as base.brep and as variant_K.brep (the pole moved by
 K steps of 1e-3 of the face's box diagonal), and the command runs side by side, in one run
 of this script:
-  - the first variant with --no-cache and with an empty store (what the store costs on misses);
+  - the first variant with --no-cache and with an empty store, alternating, COLD_PAIRS times each
+    (medians: what the store costs on misses);
   - the first variant after the base filled the store (one face changed: warm), its signature
     against the cold run's;
-  - a family of N variants with a fresh store (the first cold, the others warm) against N cold
-    runs, as a multiple of one cold run.
+  - a family of N variants with a fresh store (the first cold, the others warm), as a multiple
+    of one cold run (the median --no-cache run).
 
     /usr/bin/python3 bench/face_store.py [--hull FILE ...] [--variants N] [--keep DIR]
 
@@ -33,6 +34,8 @@ HULLS = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep"))
 DEFAULT = ("kcs_full_closed_ohp.iges", "fcship_half_wavebem.iges")
 #: The pole's step, as a fraction of the changed face's bounding-box diagonal.
 STEP = 1e-3
+#: Cold runs without and with an empty store, alternating (medians compared).
+COLD_PAIRS = 3
 
 
 def changed_face(faces):
@@ -112,18 +115,21 @@ def bench(path, n, work):
     number, share = write_variants(path, work, n)
     variant = [os.path.join(work, "variant_%d.brep" % v) for v in range(1, n + 1)]
     store = lambda name: os.path.join(work, "store-" + name)  # noqa: E731
-    t_off, cold = run(variant[0], None)
-    t_empty, _ = run(variant[0], store("empty"))
+    offs, empties = [], []
+    for k in range(COLD_PAIRS):  # alternating: the machine's drift falls on both alike
+        t, cold = run(variant[0], None)
+        offs.append(t)
+        shutil.rmtree(store("empty"), ignore_errors=True)
+        empties.append(run(variant[0], store("empty"))[0])
     t_base, _ = run(os.path.join(work, "base.brep"), store("warm"))
     t_warm, warm = run(variant[0], store("warm"))
     same = warm["signature"] == cold["signature"] and warm["validity"] == cold["validity"]
     family = [run(p, store("family"))[0] for p in variant]
-    colds = [t_off] + [run(p, None)[0] for p in variant[1:3]]
     c = warm["provenance"]["cache"]
     return {"hull": os.path.basename(path), "faces": len(cold["provenance"]["faces"]), "changed": number,
-            "share": share, "cold": t_off, "cold_empty_store": t_empty, "base": t_base, "warm": t_warm,
-            "hits": c["hits"], "misses": c["misses"], "identical": same, "family": sum(family),
-            "cold_median": statistics.median(colds), "n": n}
+            "share": share, "cold": statistics.median(offs), "cold_empty_store": statistics.median(empties),
+            "base": t_base, "warm": t_warm, "hits": c["hits"], "misses": c["misses"], "identical": same,
+            "family": sum(family), "cold_median": statistics.median(offs), "n": n}
 
 
 def main():

@@ -225,13 +225,17 @@ class BrepRun:
             out[k] = f.renumbered(faces[i][0])
             self.from_store.append(faces[i][0])
             self.finished(i, out[k], "from the store")
-        got = map_faces(lambda m: self.face_work(todo[missed[m]]), len(missed), min(self.n_jobs, max(len(missed), 1)),
-                        cost=[cost[todo[k]] for k in missed], labels=["Face%d" % faces[todo[k]][0] for k in missed],
-                        on_done=lambda m, f: self.finished(todo[missed[m]], f), while_waiting=while_waiting)
-        for k, f in zip(missed, got):
-            out[k] = f
+        def done(m, f):  # stored as it comes, while the other faces are integrated
+            k = missed[m]
             if keys[k] is not None and isinstance(f, FaceAssessment):
                 self.store.put(keys[k], f)
+            self.finished(todo[k], f)
+
+        got = map_faces(lambda m: self.face_work(todo[missed[m]]), len(missed), min(self.n_jobs, max(len(missed), 1)),
+                        cost=[cost[todo[k]] for k in missed], labels=["Face%d" % faces[todo[k]][0] for k in missed],
+                        on_done=done, while_waiting=while_waiting)
+        for k, f in zip(missed, got):
+            out[k] = f
         return out
 
     def _timed_shape_records(self):

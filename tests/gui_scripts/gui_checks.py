@@ -1538,4 +1538,47 @@ def _():
     FreeCAD.closeDocument(doc.Name)
     return out
 
+
+@step("live_update_hull")
+def _():
+    """bench/gui_live_update.py: HULLPROD_LIVE_UPDATE_FILES = [base, variant] (BRep files that
+    differ in one face): the base analysed, AutoUpdate on, the source's shape replaced by the
+    variant's, recompute; the seconds from the edit to the updated map and the longest gap of
+    the event loop meanwhile."""
+    files = json.loads(os.environ.get("HULLPROD_LIVE_UPDATE_FILES") or "null")
+    if not files:
+        return {"skipped": "no files (bench/gui_live_update.py gives them)"}
+    import Part
+    from hullprod_wb.gui import live_update
+    doc = FreeCAD.newDocument("LiveUpdateHull")
+    src = doc.addObject("Part::Feature", "Hull")
+    src.Shape = Part.read(files[0])
+    doc.recompute()
+    t = time.perf_counter()
+    a = hullprod_wb.make_analysis(src)
+    out = {"first_s": time.perf_counter() - t, "first_status": a.Status, "first_I_D": a.I_D}
+    a.AutoUpdate = True
+    doc.recompute()
+    variant = Part.read(files[1])
+    ticks = []
+    clock = QtCore.QTimer()
+    clock.setInterval(20)
+    clock.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    clock.start()
+    t = time.perf_counter()
+    src.Shape = variant
+    doc.recompute()
+    out["edit_recompute_s"] = time.perf_counter() - t
+    out["running"] = a.Name in live_update.RUNNING
+    done = wait_for(lambda: a.Status == "ok", 600)
+    process(100)  # the map drawn
+    out["edit_to_map_s"] = time.perf_counter() - t
+    clock.stop()
+    gaps = [b - c for c, b in zip(ticks, ticks[1:])]
+    cache = json.loads(a.ResultJSON)["provenance"].get("cache") or {}
+    out.update(done=done, status=a.Status, max_gap=max(gaps) if gaps else None, I_D=a.I_D, delta=a.DeltaI_D,
+               integrated=list(a.FacesIntegrated), hits=cache.get("hits"), misses=cache.get("misses"))
+    FreeCAD.closeDocument(doc.Name)
+    return out
+
 finish()

@@ -4,9 +4,10 @@ face, the face's part of the edge report (provenance.edge_report) and its displa
 
 Nothing here imports numpy: the reading side never loads it.
 """
+import hashlib
 from dataclasses import fields
 
-from ...core.exact_keys import derived_key, digest
+from ...core.exact_keys import derived_key, record_bytes
 
 
 def record_digest(rec):
@@ -15,7 +16,8 @@ def record_digest(rec):
     no digest."""
     if rec.as_data and rec.data_digest is None:
         return None
-    return digest([getattr(rec, f.name) for f in fields(rec) if f.name not in ("number", "part")])
+    return hashlib.sha256(record_bytes([getattr(rec, f.name) for f in fields(rec)
+                                        if f.name not in ("number", "part")])).hexdigest()
 
 
 def area_key(geometry, occ_version):
