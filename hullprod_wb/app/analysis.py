@@ -342,8 +342,9 @@ def store_results(obj, a, seconds=0.0):
     obj.DeltaI_D = new - before if math.isfinite(before) and math.isfinite(new) else float("nan")
     cache = a.provenance.get("cache") or {}
     stored = set(cache.get("faces_from_store") or [])
-    obj.FacesIntegrated = [int(r["face"]) for r in (a.provenance.get("faces") or [])
-                           if isinstance(r, dict) and "face" in r and r["face"] not in stored]
+    obj.FacesIntegrated = [int(r["face"]) for r in (a.provenance.get("faces") or [])  # not those left out
+                           if isinstance(r, dict) and "face" in r and r["face"] not in stored
+                           and r.get("evaluation") is not None]
     obj.OutOfDate = False
     rl = a.reference_length
     obj.Representation = str(a.input.get("representation") or "")
