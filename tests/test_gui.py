@@ -636,3 +636,10 @@ def test_live_update_follows_the_source_in_the_background(gui, shots):
     assert off["I_D"] == rec["I_D"] and off["recompute_s"] < 1.0
     assert rec["back"] == {"status": "ok", "out_of_date": False}
     assert_not_blank(rec["png"])
+    # the change map: the edited face stands out, the others stay near white (their shares move
+    # only with the total area)
+    change = {int(f): v for f, v in rec["change_map"].items()}
+    assert rec["change_legend"] == "change of each face's share of I_D"
+    assert max(change, key=change.get) == 5 and change[5] > 0.3
+    assert all(v < 0.25 * change[5] for f, v in change.items() if f != 5), change
+    assert_not_blank(rec["png_change"])

@@ -89,6 +89,8 @@ PROPERTIES = [
      "BRep faces integrated in the last run; the others came unchanged from the faces' store", True),
     ("App::PropertyString", "SettingsUsed", "Results", "the settings of the last run (to tell a changed "
      "source from changed settings)", True),
+    ("App::PropertyString", "PreviousFaceShares", "Results", "each face's share of I_D in the result before "
+     "(JSON; the change map)", True),
     ("App::PropertyString", "SourceGeometry", "Results", "digest of the source's geometry at the last run "
      "(GUI: to tell whether it changed since)", True),
     ("App::PropertyFileIncluded", "FieldsFile", "Results", "distributed fields of the last run (.npz)", True),
@@ -102,7 +104,7 @@ for _m in METRICS:
     ]
 del _m
 
-HIDDEN = ("ResultJSON", "FieldsFile", "SettingsUsed", "SourceGeometry")
+HIDDEN = ("ResultJSON", "FieldsFile", "SettingsUsed", "SourceGeometry", "PreviousFaceShares")
 #: Set by the GUI (gui.live_update): start(obj) reassesses obj in the background; None in
 #: console mode, where a recompute assesses at once.
 BACKGROUND = None
@@ -338,6 +340,7 @@ def store_results(obj, a, seconds=0.0):
     the change of I_D against the results before and the faces integrated anew."""
     doc = a.to_dict()
     before = obj.I_D if obj.ResultJSON else float("nan")
+    obj.PreviousFaceShares = json.dumps(face_shares(json.loads(obj.ResultJSON))) if obj.ResultJSON else ""
     new = _num(a.validity["I_D"].value)
     obj.DeltaI_D = new - before if math.isfinite(before) and math.isfinite(new) else float("nan")
     cache = a.provenance.get("cache") or {}
@@ -386,6 +389,27 @@ def store_results(obj, a, seconds=0.0):
         except Exception:  # a source OpenCascade cannot describe: every recompute assesses it
             obj.SourceGeometry = ""
     obj.Status = STATUS_OK
+
+
+def face_shares(doc):
+    """{face number (str): its share of I_D, its face-level I_D times its area share, or None}
+    of a result document (BRep; a mesh has none)."""
+    out = {}
+    for r in (doc.get("provenance") or {}).get("faces") or []:
+        if isinstance(r, dict) and "face" in r:
+            i_d, share = r.get("I_D"), r.get("area_share")
+            out[str(r["face"])] = i_d * share if isinstance(i_d, (int, float)) and isinstance(share, (int, float)) \
+                else None
+    return out
+
+
+def face_share_changes(obj):
+    """{face: change of its share of I_D against the result before, or None where it is not
+    in both} ({} without a result before)."""
+    if not obj.PreviousFaceShares or not obj.ResultJSON:
+        return {}
+    before, now = json.loads(obj.PreviousFaceShares), face_shares(json.loads(obj.ResultJSON))
+    return {int(f): (v - before[f] if v is not None and before.get(f) is not None else None) for f, v in now.items()}
 
 
 #: Float outputs restored at full precision from the JSON document after a reload

@@ -7,14 +7,15 @@ presets), linear or logarithmic; values outside are saturated in the display onl
 Signed: K L_ref^2 on a diverging map (saddle blue, |K L_ref^2| <= k_f white, elliptic
 red) with the same magnitude scale. Classes: one colour per curvature class, the legend
 in shares of area. Plates (BRep): each face coloured by its own face-level I_D, a zero
-included. Invalid samples (and faces without an established value) are mauve, a colour
+included. Change (BRep): each face by the change of its share of I_D against the result
+before, on the diverging map (no change white). Invalid samples (and faces without an established value) are mauve, a colour
 no map uses, so that shading never makes a flat or zero colour read as invalid.
 """
 from dataclasses import dataclass, field
 
 import numpy as np
 
-MAPS = ("Developability", "Classes", "Signed", "Plates")
+MAPS = ("Developability", "Classes", "Signed", "Plates", "Change")
 
 #: Colour of invalid samples (outside the valid K domain): a mauve that no map uses and
 #: that stays a hue, not a grey, under shading.
@@ -210,6 +211,30 @@ def plate_colors(face_id, face_values, k_f):
     return ramp(t), Legend("face I_D (plate view, log scale)", "gradient", SEQUENTIAL, ticks,
                            note="each face coloured by its own I_D%s; mauve: not established"
                                 % ("; bottom colour: I_D <= k_f = %g (flat, or 0)" % k_f if has_low else ""))
+
+
+def change_colors(face_id, changes):
+    """Colours of each face's change of its share of I_D (its I_D times its area share)
+    against the result before: face_id (n,) 1-based; changes {face: change or None (not in
+    both results)}; linear on the diverging map, symmetric about 0 (white), to the largest
+    change; mauve: not in both. Without changes (no result before) every face is white."""
+    fid = np.asarray(face_id, np.int64)
+    top = int(max(fid.max(initial=0), max(changes, default=0))) + 1
+    lut = np.full(top, np.nan)
+    for f, v in changes.items():
+        if v is not None and np.isfinite(v):
+            lut[int(f)] = v
+    big = float(np.nanmax(np.abs(lut))) if np.isfinite(lut).any() else 0.0
+    vals = lut[np.clip(fid, 0, top - 1)]
+    t = 0.5 + 0.5 * vals / big if big > 0 else np.where(np.isfinite(vals), 0.5, np.nan)
+    if not changes:
+        return ramp(np.full(len(fid), 0.5), DIVERGING), Legend(
+            "change of each face's share of I_D", "gradient", DIVERGING, [(0.5, "no result before")],
+            note="a second run (an edit of the source) shows what changed")
+    ticks = [(0.0, "-" + _fmt(big)), (0.5, "0"), (1.0, "+" + _fmt(big))] if big > 0 else [(0.5, "0: nothing changed")]
+    return ramp(t, DIVERGING), Legend("change of each face's share of I_D", "gradient", DIVERGING, ticks,
+                                      note="against the result before (faces by number); mauve: a face "
+                                           "not in both results")
 
 
 def distinct_colors(rgb, decimals=3):

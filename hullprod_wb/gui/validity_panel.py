@@ -210,6 +210,11 @@ class ValidityPanel(CloseOnlyPanel):
         if self.obj.Representation != "brep":
             self.map_buttons["Plates"].setEnabled(False)
             self.map_buttons["Plates"].setToolTip("the plate view colours BRep faces; this is a triangle mesh")
+            self.map_buttons["Change"].setEnabled(False)
+            self.map_buttons["Change"].setToolTip("the change view colours BRep faces; this is a triangle mesh")
+        else:
+            self.map_buttons["Change"].setToolTip("each face by the change of its share of I_D against the "
+                                                  "result before (after an edit of the source)")
         v.addLayout(self._scale_row())
         vp = self._vp()
         self.legend_widget = make_legend_widget(vp.legend if vp is not None and vp.legend else

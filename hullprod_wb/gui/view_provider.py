@@ -49,15 +49,17 @@ def colors_for(obj, fields, mode, scale=None):
     """(n, 3) RGB per display vertex and the Legend for colour map mode (colormaps.MAPS)."""
     if mode == "Plates" and obj.Representation == "brep" and "face_id" in fields.extra:
         return colormaps.plate_colors(fields.extra["face_id"], face_id_values(obj), obj.Kf)
+    if mode == "Change" and obj.Representation == "brep" and "face_id" in fields.extra:
+        return colormaps.change_colors(fields.extra["face_id"], app_analysis.face_share_changes(obj))
     if mode == "Classes":
         return colormaps.class_colors(fields.class_id, class_shares(obj))
     if mode == "Signed":
         return colormaps.signed_colors(fields.K, fields.valid, fields.lref, obj.Kf, scale)
     rgb, lg = colormaps.developability_colors(fields.q_D, obj.Kf, scale)
-    if mode == "Plates":
-        lg.title = "no plate view: not a BRep"
-        lg.note = ("the plate view colours BRep faces; this analysis is of a triangle mesh, so the "
-                   "developability density is shown")
+    if mode in ("Plates", "Change"):
+        lg.title = "no %s view: not a BRep" % ("plate" if mode == "Plates" else "change")
+        lg.note = ("the %s view colours BRep faces; this analysis is of a triangle mesh, so the "
+                   "developability density is shown" % ("plate" if mode == "Plates" else "change"))
     return rgb, lg
 
 
@@ -75,6 +77,10 @@ class ViewProviderHullProdAnalysis:
             from ..app import preferences
             default = preferences.get("DefaultColorMap")
             vobj.ColorMap = default if default in colormaps.MAPS else colormaps.MAPS[0]
+        elif list(vobj.getEnumerationsOfProperty("ColorMap")) != list(colormaps.MAPS):  # saved with fewer maps
+            shown = vobj.ColorMap
+            vobj.ColorMap = list(colormaps.MAPS)
+            vobj.ColorMap = shown if shown in colormaps.MAPS else colormaps.MAPS[0]
         if "ShowLegend" not in vobj.PropertiesList:
             vobj.addProperty("App::PropertyBool", "ShowLegend", "HullProd", "colour bar in the 3D view")
             vobj.ShowLegend = True

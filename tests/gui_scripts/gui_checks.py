@@ -1523,6 +1523,16 @@ def _():
     process(300)
     out["png"] = screen_shot("live_update")
     FreeCADGui.Control.closeDialog()
+    from hullprod_wb.app.analysis import analysis_fields
+    a.ViewObject.ColorMap = "Change"
+    process(200)
+    rgb = np.asarray(a.ViewObject.Proxy.colors, float)
+    fid = np.asarray(analysis_fields(a).extra["face_id"])
+    white = np.array([0.97, 0.97, 0.97])
+    out["change_map"] = {int(f): float(np.abs(rgb[fid == f] - white).max()) for f in np.unique(fid)}
+    out["change_legend"] = a.ViewObject.Proxy.legend.title
+    out["png_change"] = screen_shot("live_update_change")
+    a.ViewObject.ColorMap = "Developability"
     a.AutoUpdate = False
     doc.recompute()
     src.Shape = bezier_patches(0.1)
