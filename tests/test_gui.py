@@ -635,6 +635,9 @@ def test_live_update_follows_the_source_in_the_background(gui, shots):
     assert off["status"].startswith("out of date") and off["out_of_date"] and not off["running"]
     assert off["I_D"] == rec["I_D"] and off["recompute_s"] < 1.0
     assert rec["back"] == {"status": "ok", "out_of_date": False}
+    emptied = rec["emptied"]
+    assert emptied["status"].startswith("error: ") and "no faces" in emptied["status"], emptied
+    assert emptied["I_D"] == rec["I_D"] and not emptied["running"]
     assert_not_blank(rec["png"])
     # the change map: the edited face stands out, the others stay near white (their shares move
     # only with the total area)

@@ -192,7 +192,12 @@ class HullProdAnalysis:
             obj.OutOfDate = True
             if obj.AutoUpdate and BACKGROUND is not None:
                 obj.Status = "updating: the source changed; reassessing it in the background"
-                BACKGROUND(obj)
+                try:
+                    BACKGROUND(obj)
+                except InputError as exc:  # a source that cannot be assessed now (no faces): said, kept
+                    obj.Status = "error: %s (the results shown are from before)" % _flatten(exc)
+                    import FreeCAD
+                    FreeCAD.Console.PrintError("HullProd: update of %s: %s\n" % (obj.Label, obj.Status))
             else:
                 obj.Status = ("out of date: the source changed after these results (Analyze again, "
                               "or set AutoUpdate)")

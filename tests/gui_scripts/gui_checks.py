@@ -1543,6 +1543,12 @@ def _():
     src.Shape = bezier_patches(0.05)  # back as it was: the results are current again
     doc.recompute()
     out["back"] = {"status": a.Status, "out_of_date": a.OutOfDate}
+    a.AutoUpdate = True
+    doc.recompute()
+    import Part
+    src.Shape = Part.Compound([])  # nothing left to assess: said, the results kept
+    doc.recompute()
+    out["emptied"] = {"status": a.Status, "I_D": a.I_D, "running": a.Name in live_update.RUNNING}
 
     os.environ["HULLPROD_FACE_CACHE"] = "off"
     FreeCAD.closeDocument(doc.Name)
