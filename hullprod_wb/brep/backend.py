@@ -198,9 +198,7 @@ class BrepRun:
         n = len(self.shape.faces)
         if self.store is not None:
             self.settings = settings_digest(self.ref.value, self.thresholds, self.opts, self.in_groups,
-                                            self.cross_checks, self.shape.versions.get("OCC") if
-                                            isinstance(self, RecordedRun) else versions().get("OCC"),
-                                            type(self).__name__)
+                                            self.cross_checks, versions().get("OCC"), type(self).__name__)
         self.start_pass(INTEGRATION_SPAN, self.weights, n)
         if self.n_jobs > 1:
             self.progress(0.05, "integrating %d faces in %d processes" % (n, self.n_jobs))

@@ -16,7 +16,7 @@ HALF = 32
 def canonical_bytes(value, out=None):
     """An exact, unambiguous byte encoding of plain data: None, bool, int, float (its IEEE
     bytes), str, bytes, array, numpy arrays, and lists, tuples and dicts of them (dicts in
-    their order; a list of floats alone as one run of their bytes)."""
+    their order)."""
     out = bytearray() if out is None else out
     if value is None:
         out += b"N"
@@ -35,9 +35,6 @@ def canonical_bytes(value, out=None):
     elif isinstance(value, array):
         out += b"a%s%d:" % (value.typecode.encode(), len(value)) + value.tobytes()
     elif isinstance(value, (list, tuple)):
-        if value and all(type(v) is float for v in value):  # poles, knots: their bytes at once
-            out += b"f%d:" % len(value) + struct.pack("<%dd" % len(value), *value)
-            return out
         out += b"l%d:" % len(value)
         for v in value:
             canonical_bytes(v, out)

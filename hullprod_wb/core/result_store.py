@@ -112,6 +112,16 @@ class ResultStore:
         self.counts.bytes_written += len(data)
         return True
 
+    def made(self, key, make):
+        """The result under key, else make()'s, stored under key (key None: make()'s, not
+        stored)."""
+        value = self.get(key) if key is not None else None
+        if value is None:
+            value = make()
+            if key is not None:
+                self.put(key, value)
+        return value
+
     def has_any(self, prefix):
         """Whether some entry's key starts with prefix (at least two characters): a cheap
         guess that a lookup may hit."""

@@ -170,12 +170,9 @@ def _stored_face_edges(k, boxes, index, tol, store, digests):
         near = sorted({i for _, _, pts in samples for i in index.near(pts[0]) if boxes[i][2].isInside(pts[0])})
         if all(digests[i] is not None for i in near):
             key = edges_key(digests[k], number, tol, [(boxes[i][0], digests[i]) for i in near])
-    part = store.get(key) if key is not None else None
-    if part is None:
-        part = _face_edges(k, samples, boxes, index, tol)
-        if key is not None:
-            store.put(key, part)
-    return part
+    if store is None:
+        return _face_edges(k, samples, boxes, index, tol)
+    return store.made(key, lambda: _face_edges(k, samples, boxes, index, tol))
 
 
 def _face_edges(k, samples, boxes, index, tol):

@@ -20,10 +20,10 @@ def record_digest(rec):
                                         if f.name not in ("number", "part")])).hexdigest()
 
 
-def area_key(geometry, occ_version):
-    """The store key of OpenCascade's area of a face of geometry digest geometry (the
-    reading process's provenance; the area depends on the face alone)."""
-    return derived_key(geometry, "occ_area", occ_version)
+def area_key(data_digest, occ_version):
+    """The store key of OpenCascade's area of a face of digest data_digest of its OpenCascade
+    data (the reading process's provenance; the area depends on the face alone)."""
+    return derived_key(data_digest, "occ_area", occ_version)
 
 
 def edges_key(data_digest, number, tol, near):

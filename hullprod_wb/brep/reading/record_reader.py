@@ -37,7 +37,7 @@ from .lref_samples import SAMPLE_DEFLECTION, tessellate_faces
 from .occ_records import (CROSS_CHECK_POINTS, DISPLAY_DEFLECTION, FaceData, display_mesh, face_record,
                           occ_reference, patch_count)
 from .provenance import occ_face_area, shape_boxes, shape_provenance
-from .record_keys import area_key, record_digest
+from .record_keys import area_key
 from .reader_process import STAGE, ReaderProcess
 
 
@@ -92,7 +92,7 @@ def part_record(face, why, number, part):
     (loading.faces_to_bytes) instead of plain numbers (another surface type, a planar face,
     a p-curve of another type or none, or a face face_record could not describe), the
     reason why; the face itself travels in the frame's part_faces, at index part. Its
-    data_digest is the SHA-256 of its own data (None where OpenCascade cannot write it)."""
+    data_digest is face_data_digest's."""
     try:
         surface_type = type(face.Surface).__name__
     except Exception:  # no surface OpenCascade can give: the parent's set-up says so
@@ -101,12 +101,18 @@ def part_record(face, why, number, part):
         reference = occ_reference(face)
     except Exception:  # no parameter range: nothing to compare
         reference = [None] * CROSS_CHECK_POINTS
-    try:
-        data_digest = hashlib.sha256(faces_to_bytes([face])).hexdigest()
-    except Exception:  # no data OpenCascade can write: the face is never stored
-        data_digest = None
     return FaceData(number=number, surface_type=surface_type, kind="part", part=part,
-                    patch_count=patch_count(face), occ_reference=reference, reason=why, data_digest=data_digest)
+                    patch_count=patch_count(face), occ_reference=reference, reason=why,
+                    data_digest=face_data_digest(face))
+
+
+def face_data_digest(face):
+    """The SHA-256 of a face's own OpenCascade data (loading.shape_to_bytes), taken before
+    any tessellation adds to it; None where OpenCascade cannot write it (never stored)."""
+    try:
+        return hashlib.sha256(shape_to_bytes(face)).hexdigest()
+    except Exception:  # no data OpenCascade can write
+        return None
 
 
 def record_frames(path, faces, with_fields, display_deflection, cache=None):
@@ -141,7 +147,8 @@ def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
         faces.append(rec)
     store = reading_store(cache)
     # the faces' own data, before any tessellation adds to it: their keys in the store
-    digests = [hashlib.sha256(shape_to_bytes(f)).hexdigest() for _, f in inp.faces] if store is not None else None
+    digests = None if store is None else [r.data_digest if r.as_data else face_data_digest(f)
+                                          for r, (_, f) in zip(faces, inp.faces)]
     # the records first: the parent sets the faces up while the tessellation runs here
     yield {FRAME: FacesFrame(inp.info, inp.units, faces, size, versions(), read_seconds,
                              faces_to_bytes(as_data) if as_data else None, user_cache_folder()),
@@ -164,7 +171,7 @@ def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
         with lookups("display_meshes_from_store"):
             display = display_meshes([f for _, f in inp.faces], deflection, SAMPLE_DEFLECTION * size, store, digests)
     with lookups("occ_areas_from_store"):
-        areas = face_areas(inp.faces, faces, store)
+        areas = face_areas(inp.faces, store, digests)
     with lookups("edge_reports_from_store"):
         provenance = shape_provenance(inp.shape, inp.faces, areas, boxes, store, digests)
     provenance.update(lookups.record)
@@ -187,18 +194,17 @@ def display_meshes(faces, deflection, lref_deflection, store=None, digests=None)
     occ = versions().get("OCC")
     meshed, out = [False] * len(faces), []
     for k, face in enumerate(faces):
-        near = [(i < k, digests[i]) for i in neighbours[k]]
-        key = display_key(digests[k], deflection, lref_deflection, occ, near)
-        got = store.get(key)
-        if got is None:
+        def mesh():
             for i in neighbours[k]:
                 if i < k and not meshed[i]:
                     display_mesh(faces[i], deflection)  # its shared edges as a run without the store has them
                     meshed[i] = True
-            got = display_mesh(face, deflection)
             meshed[k] = True
-            store.put(key, got)
-        out.append(got)
+            return display_mesh(face, deflection)
+        near = [(i < k, digests[i]) for i in neighbours[k]]
+        known = digests[k] is not None and all(d is not None for _, d in near)
+        out.append(store.made(display_key(digests[k], deflection, lref_deflection, occ, near) if known else None,
+                              mesh))
     return out
 
 
@@ -242,24 +248,15 @@ def reading_store(cache):
         return None
 
 
-def face_areas(faces, records, store):
+def face_areas(faces, store=None, digests=None):
     """OpenCascade's area of each face (provenance.occ_face_area; None where it has none): a
-    face's area depends on the face alone, so with a store it is kept there under its
-    record's digest (record_keys.area_key) and taken from there when the face comes again."""
-    if store is None:
+    face's area depends on the face alone, so with a store and the faces' data digests it is
+    kept there (record_keys.area_key) and taken from there when the face comes again."""
+    if store is None or digests is None:
         return [occ_face_area(f) for _, f in faces]
     occ = versions().get("OCC")
-    out = []
-    for (_, face), rec in zip(faces, records):
-        geometry = record_digest(rec)
-        key = None if geometry is None else area_key(geometry, occ)
-        got = store.get(key) if key is not None else None
-        if got is None:
-            got = ("area", occ_face_area(face))
-            if key is not None:
-                store.put(key, got)
-        out.append(got[1])
-    return out
+    return [store.made(None if d is None else area_key(d, occ), lambda f=face: ("area", occ_face_area(f)))[1]
+            for (_, face), d in zip(faces, digests)]
 
 
 class ReadInChild:
