@@ -187,22 +187,9 @@ def test_a_record_key_ignores_the_face_number_only():
 # --- assessments through the store -------------------------------------------------------
 
 def patches(bumps=(), n=3):
-    """Part faces of n x n bicubic Bezier patches of a smooth hull-like surface; bumps: (patch
-    index, dz) moving that patch's pole (2, 2)."""
-    from hullprod_wb.examples.analytic_shapes import bezier_face
-    faces = []
-    for k in range(n * n):
-        i, j = divmod(k, n)
-        u = (i + np.linspace(0.0, 1.0, 4))[:, None] / n
-        v = (j + np.linspace(0.0, 1.0, 4))[None, :] / n
-        P = np.zeros((4, 4, 3))
-        P[..., 0], P[..., 1] = 4.0 * u, 1.0 * v + 0 * u
-        P[..., 2] = 0.3 * np.sin(2.5 * u) * np.cos(1.7 * v) + 0.1 * (u * v) ** 2
-        for index, dz in bumps:
-            if index == k:
-                P[2, 2, 2] += dz
-        faces.append(bezier_face(P))
-    return faces
+    """analytic_shapes.patch_grid: n x n Bezier patches, bumps (index, dz) moving a pole."""
+    from hullprod_wb.examples.analytic_shapes import patch_grid
+    return patch_grid(bumps, n)
 
 
 def write_shape(path, faces):

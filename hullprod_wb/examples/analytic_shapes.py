@@ -28,6 +28,25 @@ def bezier_face(poles):
     return s.toShape()
 
 
+def patch_grid(bumps=(), n=3):
+    """Part faces of n x n bicubic Bezier patches of a smooth hull-like surface over
+    [0, 4] x [0, 1] (no closed form: the faces' store and live-update checks change one patch
+    and compare); bumps: (patch index, dz) pairs, each moving that patch's pole (2, 2) up."""
+    faces = []
+    for k in range(n * n):
+        i, j = divmod(k, n)
+        u = (i + np.linspace(0.0, 1.0, 4))[:, None] / n
+        v = (j + np.linspace(0.0, 1.0, 4))[None, :] / n
+        P = np.zeros((4, 4, 3))
+        P[..., 0], P[..., 1] = 4.0 * u, 1.0 * v + 0 * u
+        P[..., 2] = 0.3 * np.sin(2.5 * u) * np.cos(1.7 * v) + 0.1 * (u * v) ** 2
+        for index, dz in bumps:
+            if index == k:
+                P[2, 2, 2] += dz
+        faces.append(bezier_face(P))
+    return faces
+
+
 def saddle_face():
     """z = (x^2 - y^2)/4 on [-1, 1]^2 as an exact degree-(2, 2) Bezier patch.
 

@@ -1457,22 +1457,26 @@ def _():
 
 
 def bezier_patches(bump=0.0, n=3):
-    """n x n bicubic Bezier patches of a smooth hull-like surface, the middle patch's pole
-    (2, 2) moved up by bump (the shape of tests/test_face_store.patches)."""
+    """The compound of analytic_shapes.patch_grid, the middle patch's pole moved up by bump."""
     import Part
-    from hullprod_wb.examples.analytic_shapes import bezier_face
-    faces = []
-    for k in range(n * n):
-        i, j = divmod(k, n)
-        u = (i + np.linspace(0.0, 1.0, 4))[:, None] / n
-        v = (j + np.linspace(0.0, 1.0, 4))[None, :] / n
-        P = np.zeros((4, 4, 3))
-        P[..., 0], P[..., 1] = 4.0 * u, 1.0 * v + 0 * u
-        P[..., 2] = 0.3 * np.sin(2.5 * u) * np.cos(1.7 * v) + 0.1 * (u * v) ** 2
-        if k == n * n // 2:
-            P[2, 2, 2] += bump
-        faces.append(bezier_face(P))
-    return Part.Compound(faces)
+    from hullprod_wb.examples.analytic_shapes import patch_grid
+    return Part.Compound(patch_grid([(n * n // 2, bump)], n))
+
+
+def loop_clock(ms=20):
+    """A started Qt timer that records the time of each of its ticks, and that list: the gaps
+    between ticks are how long the event loop was held (longest_gap)."""
+    ticks = []
+    clock = QtCore.QTimer()
+    clock.setInterval(ms)
+    clock.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    clock.start()
+    return clock, ticks
+
+
+def longest_gap(ticks):
+    gaps = [b - a for a, b in zip(ticks, ticks[1:])]
+    return max(gaps) if gaps else None
 
 
 @step("live_update")
@@ -1496,11 +1500,7 @@ def _():
     out["toggle_recompute_s"] = time.perf_counter() - t
     out["after_toggle"] = {"status": a.Status, "I_D": a.I_D, "running": a.Name in live_update.RUNNING}
     src.Shape = bezier_patches(0.05)
-    ticks = []
-    clock = QtCore.QTimer()
-    clock.setInterval(20)
-    clock.timeout.connect(lambda: ticks.append(time.perf_counter()))
-    clock.start()
+    clock, ticks = loop_clock()
     t = time.perf_counter()
     doc.recompute()
     out["edit_recompute_s"] = time.perf_counter() - t
@@ -1510,8 +1510,7 @@ def _():
     done = wait_for(lambda: statuses.add(a.Status.split(":")[0]) or a.Status == "ok", 120)
     out["update_s"] = time.perf_counter() - t
     clock.stop()
-    gaps = [b - c for c, b in zip(ticks, ticks[1:])]
-    out.update(done=done, statuses=sorted(statuses), max_gap=max(gaps) if gaps else None, ticks=len(ticks),
+    out.update(done=done, statuses=sorted(statuses), max_gap=longest_gap(ticks), ticks=len(ticks),
                I_D=a.I_D, delta=a.DeltaI_D, integrated=list(a.FacesIntegrated), out_of_date=a.OutOfDate,
                cache=json.loads(a.ResultJSON)["provenance"]["cache"], change_line=change_line(a))
     a.ViewObject.Visibility = True
@@ -1576,11 +1575,7 @@ def _():
     a.AutoUpdate = True
     doc.recompute()
     variant = Part.read(files[1])
-    ticks = []
-    clock = QtCore.QTimer()
-    clock.setInterval(20)
-    clock.timeout.connect(lambda: ticks.append(time.perf_counter()))
-    clock.start()
+    clock, ticks = loop_clock()
     t = time.perf_counter()
     src.Shape = variant
     doc.recompute()
@@ -1590,9 +1585,8 @@ def _():
     process(100)  # the map drawn
     out["edit_to_map_s"] = time.perf_counter() - t
     clock.stop()
-    gaps = [b - c for c, b in zip(ticks, ticks[1:])]
     cache = json.loads(a.ResultJSON)["provenance"].get("cache") or {}
-    out.update(done=done, status=a.Status, max_gap=max(gaps) if gaps else None, I_D=a.I_D, delta=a.DeltaI_D,
+    out.update(done=done, status=a.Status, max_gap=longest_gap(ticks), I_D=a.I_D, delta=a.DeltaI_D,
                integrated=list(a.FacesIntegrated), hits=cache.get("hits"), misses=cache.get("misses"))
     FreeCAD.closeDocument(doc.Name)
     return out
