@@ -15,6 +15,15 @@ from .constants import METRICS
 
 def json_safe(obj):
     """Recursively convert numpy types to Python and non-finite floats to None."""
+    t = type(obj)
+    if t is float:
+        return obj if math.isfinite(obj) else None
+    if t is str or t is int or t is bool or obj is None:
+        return obj
+    if t is dict:
+        return {(k if type(k) is str else str(k)): json_safe(v) for k, v in obj.items()}
+    if t is list or t is tuple:
+        return [json_safe(v) for v in obj]
     if isinstance(obj, dict):
         return {str(k): json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -35,9 +44,31 @@ def json_safe(obj):
     return obj
 
 
+#: Levels of a document that dumps lays out one member a line; deeper values are written on
+#: one line each (a face's record, a list of numbers).
+LAID_OUT_LEVELS = 3
+_ONE_LINE = json.JSONEncoder(allow_nan=False, separators=(", ", ": ")).encode
+
+
 def dumps(doc, indent=2):
-    """Strict JSON text (allow_nan=False guarantees no NaN slipped through)."""
-    return json.dumps(json_safe(doc), indent=indent, allow_nan=False)
+    """Strict JSON text (no NaN: json_safe and allow_nan=False). indent None: one line; else
+    the first LAID_OUT_LEVELS levels one member a line, indented, and each deeper value on
+    its line (the encoder's fast path)."""
+    safe = json_safe(doc)
+    if indent is None:
+        return _ONE_LINE(safe)
+    return _laid_out(safe, " " * indent, 0)
+
+
+def _laid_out(obj, step, level):
+    if level >= LAID_OUT_LEVELS or not obj or not isinstance(obj, (dict, list)):
+        return _ONE_LINE(obj)
+    inner = "\n" + step * (level + 1)
+    if isinstance(obj, dict):
+        parts = [_ONE_LINE(k) + ": " + _laid_out(v, step, level + 1) for k, v in obj.items()]
+        return "{" + inner + ("," + inner).join(parts) + "\n" + step * level + "}"
+    parts = [_laid_out(v, step, level + 1) for v in obj]
+    return "[" + inner + ("," + inner).join(parts) + "\n" + step * level + "]"
 
 
 def write_json(path, doc):
