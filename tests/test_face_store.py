@@ -184,6 +184,51 @@ def test_a_record_key_ignores_the_face_number_only():
     assert record_digest(replace(data, data_digest="0" * 64)) != record_digest(replace(data, data_digest="1" * 64))
 
 
+# --- claims: runs sharing a store make each result once ------------------------------------
+
+def test_a_claim_binds_other_runs_until_released(tmp_path):
+    from hullprod_wb.core import result_claims as rc
+    entry = str(tmp_path / "ab" / (KEY + ".entry"))
+    me, other = rc.owner(), rc.owner(os.getppid())
+    assert rc.take(entry, me) and rc.take(entry, me)  # made, then held already
+    assert not rc.take(entry, other) and rc.held_elsewhere(entry, other) and not rc.held_elsewhere(entry, me)
+    rc.release(entry, other)  # not its claim: stays
+    assert rc.held_elsewhere(entry, other)
+    rc.release(entry, me)
+    assert not rc.held_elsewhere(entry, other) and rc.take(entry, other)
+
+
+def test_dead_claims_are_taken_over(tmp_path):
+    import time
+    from hullprod_wb.core import result_claims as rc
+    entry = ResultStore(tmp_path).path(KEY)
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    dead = rc.owner(p.pid)  # a process of this host that has ended
+    assert rc.take(entry, dead) and not rc.held_elsewhere(entry, rc.owner()) and rc.take(entry, rc.owner())
+    os.unlink(entry + rc.SUFFIX)
+    z = subprocess.Popen([sys.executable, "-c", "pass"])  # ended and not yet waited for: a zombie
+    while not os.path.exists("/proc/%d" % z.pid) or b") Z" not in open("/proc/%d/stat" % z.pid, "rb").read():
+        time.sleep(0.01)
+    assert rc.take(entry, rc.owner(z.pid)) and not rc.held_elsewhere(entry, rc.owner())
+    z.wait()
+    os.unlink(entry + rc.SUFFIX)
+    far = "another-host 1"
+    assert rc.take(entry, far) and rc.held_elsewhere(entry, rc.owner())  # another host: by its age
+    old = os.path.getmtime(entry + rc.SUFFIX) - rc.FOREIGN_CLAIM_S - 1
+    os.utime(entry + rc.SUFFIX, (old, old))
+    assert not rc.held_elsewhere(entry, rc.owner()) and rc.take(entry, rc.owner())
+    os.utime(entry + rc.SUFFIX, (old - rc.CLAIM_LIFETIME_S,) * 2)
+    assert ResultStore(tmp_path).entries() == [] and not os.path.exists(entry + rc.SUFFIX)  # prune's scan
+
+
+def test_a_claim_that_cannot_be_written_does_not_stop_a_run(tmp_path):
+    from hullprod_wb.core import result_claims as rc
+    blocked = tmp_path / "file"
+    blocked.write_text("")
+    assert rc.take(str(blocked / "ab" / (KEY + ".entry")), rc.owner())  # its folder cannot be made
+
+
 # --- assessments through the store -------------------------------------------------------
 
 def patches(bumps=(), n=3):
@@ -312,6 +357,8 @@ def test_two_assessments_at_once_share_a_store(tmp_path):
         assert p.returncode == 0, err
         docs.append(json.loads(out))
     assert comparable(docs[0]) == comparable(docs[1])
+    # each face integrated once: by one run, the other taking it from the store or awaiting it
+    assert sum(d["provenance"]["cache"]["written"] for d in docs) == 9
     third = analyze(path, store, "--jobs", "1")
     assert third["provenance"]["cache"]["hits"] == 9 and comparable(third) == comparable(docs[0])
 
@@ -339,6 +386,32 @@ def test_a_part_shape_in_process_uses_the_store_and_survives_a_full_disk(tmp_pat
     assert comparable(full_disk) == comparable(assess_brep(other, cache=False, **kw).to_dict())
     assert assess_brep(other, cache=False, **kw).to_dict()["provenance"]["cache"] == {
         "enabled": False, "source": "off (--no-cache, cache=False)"}
+
+
+@needs_freecad
+def test_faces_another_run_claimed_are_awaited_and_made_here_when_it_ends(tmp_path):
+    import time
+    import Part
+    from hullprod_wb.brep.backend import assess_brep
+    from hullprod_wb.core import result_claims as rc
+    shape = Part.Compound(patches(n=2))
+    kw = dict(lref=4.0, with_fields=False, jobs=1)
+    cold = assess_brep(shape, cache=str(tmp_path / "a"), **kw).to_dict()
+    keys = [os.path.basename(e[2])[:-len(".entry")] for e in ResultStore(tmp_path / "a").entries()]
+    import threading
+    holder = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(1.5)"])  # a run that dies unfinished
+    reaped = threading.Thread(target=holder.wait)  # reaped as it ends (a zombie would still be a process)
+    reaped.start()
+    b = ResultStore(tmp_path / "b")
+    for key in keys:
+        assert rc.take(b.path(key), rc.owner(holder.pid))
+    t = time.monotonic()
+    late = assess_brep(shape, cache=b, **kw).to_dict()
+    reaped.join()
+    assert time.monotonic() - t >= 1.0 and holder.returncode == 0  # it waited for the holder
+    c = late["provenance"]["cache"]
+    assert (c["written"], c["awaited"]) == (4, 0) and comparable(late) == comparable(cold)
+    assert not any(n.endswith(rc.SUFFIX) for _, _, fs in os.walk(tmp_path / "b") for n in fs)
 
 
 def test_the_command_refuses_contradicting_store_options(tmp_path):

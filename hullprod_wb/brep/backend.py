@@ -39,9 +39,10 @@ from .face_assessment import assess_face
 from ..core.exact_keys import HALF
 from .face_keys import face_key, geometry_digest, settings_digest
 from .geometry.face_field import FaceField
-from ..core.processes import map_faces, resolve_jobs
+from ..core.processes import resolve_jobs
 from .face_result import FaceAssessment
 from .face_setup import FaceSetup, set_up_or_none, set_up_until
+from .stored_faces import stored_or_assessed
 from .validity.left_out import LeftOutFace, evaluated_faces, left_out_face, left_out_qualification
 from .reading.loading import BRepInput, load_brep
 from .validity.metric_rules import concentrated_faces, face_records, metric_validity, refinement_history, threshold_band
@@ -156,7 +157,8 @@ class BrepRun:
         self.cost = [self.face_cost(f) for f in faces]
         ready = self.lref_ready
         self.store, self.store_source = open_store(self.cache, self.user_cache)
-        self.geometry = [geometry_digest(f) if self.store is not None else None for f in faces]
+        with self.timed("store_s"):
+            self.geometry = [geometry_digest(f) if self.store is not None else None for f in faces]
         # a face whose geometry is in the store is likely to come from it: not set up here
         todo = [i for i, g in enumerate(self.geometry) if g is None or not self.store.has_any(g[:HALF])]
         self.setups = [None] * len(faces)
@@ -210,31 +212,8 @@ class BrepRun:
         return None if g is None else face_key(g, self.settings, self.face_budgets[i])
 
     def stored_or_assessed(self, todo, cost, while_waiting=None):
-        """The results of the faces todo (indices): from the store where their keys hit, the
-        others assessed (face_work) in worker processes and stored; while_waiting as
-        map_faces's."""
-        faces, out, missed = self.shape.faces, [None] * len(todo), []
-        keys = [self.key(i) for i in todo]
-        for k, (i, key) in enumerate(zip(todo, keys)):
-            f = self.store.get(key) if key is not None else None
-            if f is None:
-                missed.append(k)
-                continue
-            out[k] = f.renumbered(faces[i][0])
-            self.from_store.append(faces[i][0])
-            self.finished(i, out[k], "from the store")
-        def done(m, f):  # stored as it comes, while the other faces are integrated
-            k = missed[m]
-            if keys[k] is not None and isinstance(f, FaceAssessment):
-                self.store.put(keys[k], f)
-            self.finished(todo[k], f)
-
-        got = map_faces(lambda m: self.face_work(todo[missed[m]]), len(missed), min(self.n_jobs, max(len(missed), 1)),
-                        cost=[cost[todo[k]] for k in missed], labels=["Face%d" % faces[todo[k]][0] for k in missed],
-                        on_done=done, while_waiting=while_waiting)
-        for k, f in zip(missed, got):
-            out[k] = f
-        return out
+        """The results of the faces todo (indices) through the store (stored_faces)."""
+        return stored_or_assessed(self, todo, cost, while_waiting)
 
     def _timed_shape_records(self):
         with self.timed("provenance_s"):

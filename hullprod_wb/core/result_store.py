@@ -7,7 +7,8 @@ trusts an entry only when its header names the key asked for and the payload's d
 matches; anything else (a truncated write, a damaged disk block, a file of another version)
 is counted, removed and read as a miss. A writer writes a temporary file in the same folder
 and renames it over the entry (os.replace), so a reader sees the old entry, the new one or
-none, and two writers of one key leave one whole entry. A hit refreshes the entry's
+none, and two writers of one key leave one whole entry; a run claims a key before making its
+result (core.result_claims), so that runs sharing the store make it once. A hit refreshes the entry's
 modification time; prune() removes the entries used longest ago until the folder fits its
 bound. Write errors (a full disk, a folder that cannot be written) turn writing off for the
 rest of the run and are recorded; they never change a result.
@@ -21,6 +22,8 @@ import os
 import pickle
 import time
 from dataclasses import dataclass, field
+
+from . import result_claims
 
 #: The first bytes of an entry; a change of the entry format changes it.
 FORMAT = b"HULLPROD-RESULT-1"
@@ -36,7 +39,8 @@ PICKLE_PROTOCOL = 4
 class StoreCounts:
     """What a run did with its store: hits and misses (lookups), entries written, bytes read
     and written, entries found damaged (ignored and removed), write errors (messages;
-    writing stops at the first) and entries pruned."""
+    writing stops at the first), entries pruned, and results another run was making when
+    this one missed them, waited for (result_claims)."""
 
     hits: int = 0
     misses: int = 0
@@ -46,9 +50,10 @@ class StoreCounts:
     damaged: int = 0
     write_errors: list = field(default_factory=list)
     pruned: int = 0
+    awaited: int = 0
 
     def to_dict(self):
-        return {"hits": self.hits, "misses": self.misses, "written": self.written,
+        return {"hits": self.hits, "misses": self.misses, "written": self.written, "awaited": self.awaited,
                 "bytes_read": self.bytes_read, "bytes_written": self.bytes_written,
                 "damaged_entries_ignored": self.damaged, "write_errors": list(self.write_errors),
                 "pruned": self.pruned}
@@ -62,6 +67,7 @@ class ResultStore:
         self.max_bytes = int(max_bytes)
         self.counts = StoreCounts()
         self.writable = True
+        self.owner = result_claims.owner()
 
     def path(self, key):
         return os.path.join(self.folder, key[:2], key + ".entry")
@@ -122,6 +128,19 @@ class ResultStore:
                 self.put(key, value)
         return value
 
+    def claim(self, key):
+        """Claim key for this run before making its result (core.result_claims): False while
+        another live run is making it."""
+        return result_claims.take(self.path(key), self.owner)
+
+    def release(self, key):
+        """Give up this run's claim on key (its result stored, or not to be made here)."""
+        result_claims.release(self.path(key), self.owner)
+
+    def claimed_elsewhere(self, key):
+        """Whether another live run is making the result of key."""
+        return result_claims.held_elsewhere(self.path(key), self.owner)
+
     def has_any(self, prefix):
         """Whether some entry's key starts with prefix (at least two characters): a cheap
         guess that a lookup may hit."""
@@ -153,6 +172,8 @@ class ResultStore:
                     if f.name.endswith(".entry"):
                         out.append((st.st_mtime, st.st_size, f.path))
                     elif ".tmp-" in f.name and now - st.st_mtime > STALE_TEMPORARY_S:
+                        _remove(f.path)
+                    elif f.name.endswith(result_claims.SUFFIX) and now - st.st_mtime > result_claims.CLAIM_LIFETIME_S:
                         _remove(f.path)
         return out
 
