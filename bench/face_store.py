@@ -7,13 +7,17 @@ box). The hull's faces are written as base.brep and as variant_K.brep (the pole 
 K steps of 1e-3 of the face's box diagonal), and the command runs side by side, in one run
 of this script:
   - the first variant with --no-cache and with an empty store, alternating, COLD_PAIRS times each
-    (medians: what the store costs on misses);
+    (medians: what the store costs on misses; and the main process's own seconds in the store
+    on the empty-store runs, timings.store_s);
   - the first variant after the base filled the store (one face changed: warm), its signature
     against the cold run's;
-  - a family of N variants with a fresh store (the first cold, the others warm), as a multiple
-    of one cold run (the median --no-cache run).
+  - a family of N variants with a fresh store, as a multiple of one cold run (the median
+    --no-cache run): as N commands one after another (the first cold, the others warm), as
+    one `hullprod batch` on the local workers, and as one `hullprod batch` on a Dask
+    LocalCluster of as many worker processes (--no-dask: not). The batch's workers share the
+    store: a face one of them is integrating, the others await (core.result_claims).
 
-    /usr/bin/python3 bench/face_store.py [--hull FILE ...] [--variants N] [--keep DIR]
+    /usr/bin/python3 bench/face_store.py [--hull FILE ...] [--variants N] [--keep DIR] [--no-dask]
 
 Default hulls: the shared closed KCS (125 faces) and fcship (449 faces).
 """
@@ -28,6 +32,7 @@ import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.append("/usr/lib/freecad-python3/lib")
 HULLS = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep"))
@@ -111,25 +116,43 @@ def run(path, store):
     return wall, json.loads(p.stdout)
 
 
-def bench(path, n, work):
+def run_batch(paths, store, out, scheduler=None):
+    """Wall seconds of one `hullprod batch` of paths with the store folder (on the Dask
+    scheduler's workers, else the local ones)."""
+    cmd = [os.path.join(ROOT, "hullprod"), "batch"] + paths + ["--cache", store, "--out", out, "--quiet"]
+    cmd += ["--scheduler", scheduler] if scheduler else []
+    t = time.perf_counter()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if p.returncode != 0 or " 0 failed" not in p.stdout:
+        raise SystemExit("%s: exit %d: %s" % (" ".join(cmd), p.returncode, (p.stdout + p.stderr).strip()[-400:]))
+    return wall
+
+
+def bench(path, n, work, scheduler):
     number, share = write_variants(path, work, n)
     variant = [os.path.join(work, "variant_%d.brep" % v) for v in range(1, n + 1)]
     store = lambda name: os.path.join(work, "store-" + name)  # noqa: E731
-    offs, empties = [], []
+    offs, empties, own = [], [], []
     for k in range(COLD_PAIRS):  # alternating: the machine's drift falls on both alike
         t, cold = run(variant[0], None)
         offs.append(t)
         shutil.rmtree(store("empty"), ignore_errors=True)
-        empties.append(run(variant[0], store("empty"))[0])
+        t, doc = run(variant[0], store("empty"))
+        empties.append(t)
+        own.append(doc["timings"]["store_s"])
     t_base, _ = run(os.path.join(work, "base.brep"), store("warm"))
     t_warm, warm = run(variant[0], store("warm"))
     same = warm["signature"] == cold["signature"] and warm["validity"] == cold["validity"]
     family = [run(p, store("family"))[0] for p in variant]
+    local = run_batch(variant, store("batch"), os.path.join(work, "out-batch"))
+    dask = scheduler and run_batch(variant, store("dask"), os.path.join(work, "out-dask"), scheduler)
     c = warm["provenance"]["cache"]
     return {"hull": os.path.basename(path), "faces": len(cold["provenance"]["faces"]), "changed": number,
             "share": share, "cold": statistics.median(offs), "cold_empty_store": statistics.median(empties),
+            "store_s": statistics.median(own),
             "base": t_base, "warm": t_warm, "hits": c["hits"], "misses": c["misses"], "identical": same,
-            "family": sum(family), "cold_median": statistics.median(offs), "n": n}
+            "family": sum(family), "batch": local, "dask": dask, "cold_median": statistics.median(offs), "n": n}
 
 
 def main():
@@ -137,36 +160,54 @@ def main():
     ap.add_argument("--hull", action="append", help="BRep file (repeatable; default: %s)" % ", ".join(DEFAULT))
     ap.add_argument("--variants", type=int, default=20, help="variants of the family (default 20)")
     ap.add_argument("--keep", help="write the variants and stores here and keep them")
+    ap.add_argument("--no-dask", action="store_true", help="no family on a Dask LocalCluster")
     args = ap.parse_args()
     hulls = args.hull or [os.path.join(HULLS, h) for h in DEFAULT if os.path.isfile(os.path.join(HULLS, h))]
     if not hulls:
         raise SystemExit("no hull: give --hull FILE (../shared/hulls is absent)")
-    rows = []
-    for h in hulls:
-        work = args.keep and os.path.join(args.keep, os.path.splitext(os.path.basename(h))[0])
-        if work:
-            os.makedirs(work, exist_ok=True)
-        else:
-            work = tempfile.mkdtemp(prefix="hullprod-store-bench-")
-        try:
-            rows.append(bench(h, args.variants, work))
-        finally:
-            if not args.keep:
-                shutil.rmtree(work, ignore_errors=True)
-        r = rows[-1]
-        print("%s: face %d changed (%.2g of the area); cold %.2f s (empty store %.2f s), warm %.2f s "
-              "(%d hits, %d misses), same signature and validity: %s; family of %d: %.1f s = %.2f cold runs"
-              % (r["hull"], r["changed"], r["share"], r["cold"], r["cold_empty_store"], r["warm"], r["hits"],
-                 r["misses"], r["identical"], r["n"], r["family"], r["family"] / r["cold_median"]), flush=True)
+    cluster = None
+    if not args.no_dask:
+        from dask.distributed import LocalCluster
+        from hullprod_wb.batch.runner import worker_environ
+        with worker_environ():  # the workers start as a batch's local workers do
+            cluster = LocalCluster(n_workers=os.cpu_count(), threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address=":0")
+    try:
+        rows = [bench_hull(h, args, cluster and cluster.scheduler_address) for h in hulls]
+    finally:
+        if cluster is not None:
+            cluster.close()
     print()
     print("| hull | faces | cold --no-cache [s] | cold, empty store [s] | one face changed, warm [s] | "
-          "warm / cold | same signature | family of N [s] | family / cold run |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "warm / cold | same signature | family of N: commands / cold | batch / cold | Dask / cold |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s | %d | %.2f | %.2f (%+.1f %%) | %.2f | %.2f | %s | %.1f (N = %d) | %.2f |"
+        print("| %s | %d | %.2f | %.2f (%+.1f %%; store's own work %.3f s) | %.2f | %.2f | %s | %.2f (N = %d) | %.2f | %s |"
               % (r["hull"], r["faces"], r["cold"], r["cold_empty_store"], 100 * (r["cold_empty_store"] / r["cold"] - 1),
-                 r["warm"], r["warm"] / r["cold"], "yes" if r["identical"] else "NO", r["family"], r["n"],
-                 r["family"] / r["cold_median"]))
+                 r["store_s"],
+                 r["warm"], r["warm"] / r["cold"], "yes" if r["identical"] else "NO", r["family"] / r["cold_median"],
+                 r["n"], r["batch"] / r["cold_median"],
+                 "%.2f" % (r["dask"] / r["cold_median"]) if r["dask"] else "-"))
+
+
+def bench_hull(h, args, scheduler):
+    """The row of hull file h (its variants written in a temporary folder, or in --keep)."""
+    work = args.keep and os.path.join(args.keep, os.path.splitext(os.path.basename(h))[0])
+    if work:
+        os.makedirs(work, exist_ok=True)
+    else:
+        work = tempfile.mkdtemp(prefix="hullprod-store-bench-")
+    try:
+        r = bench(h, args.variants, work, scheduler)
+    finally:
+        if not args.keep:
+            shutil.rmtree(work, ignore_errors=True)
+    print("%s: face %d changed (%.2g of the area); cold %.2f s (empty store %.2f s), warm %.2f s "
+          "(%d hits, %d misses), same signature and validity: %s; family of %d: commands %.1f s, batch %.1f s%s "
+          "(cold %.2f s)" % (r["hull"], r["changed"], r["share"], r["cold"], r["cold_empty_store"], r["warm"], r["hits"],
+                             r["misses"], r["identical"], r["n"], r["family"], r["batch"],
+                             ", Dask %.1f s" % r["dask"] if r["dask"] else "", r["cold_median"]), flush=True)
+    return r
 
 
 if __name__ == "__main__":
