@@ -414,6 +414,20 @@ def test_faces_another_run_claimed_are_awaited_and_made_here_when_it_ends(tmp_pa
     assert not any(n.endswith(rc.SUFFIX) for _, _, fs in os.walk(tmp_path / "b") for n in fs)
 
 
+@needs_freecad
+def test_display_samples_come_from_the_store_as_they_were_made(tmp_path):
+    from hullprod_wb.api import assess
+    path = write_shape(tmp_path / "hull.brep", patches())
+    cold = assess(path, lref=4.0, cache=str(tmp_path / "store"), jobs=1)
+    warm = assess(path, lref=4.0, cache=str(tmp_path / "store"), jobs=1)
+    assert cold.to_dict()["provenance"]["cache"]["written"] == 18  # nine faces' results and samples
+    assert warm.to_dict()["provenance"]["cache"]["hits"] == 18
+    for k in ("points", "triangles", "K", "H", "valid"):
+        assert np.array_equal(getattr(warm.fields, k), getattr(cold.fields, k)), k
+    for k in ("face_id", "k1", "k2"):
+        assert np.array_equal(warm.fields.extra[k], cold.fields.extra[k]), k
+
+
 def test_the_command_refuses_contradicting_store_options(tmp_path):
     p = subprocess.run([sys.executable, "-m", "hullprod_wb.cli", "analyze", "x.igs", "--cache", str(tmp_path),
                         "--no-cache"], capture_output=True, text=True, cwd=ROOT)

@@ -33,11 +33,11 @@ from ..freecad_env import set_reported_versions, user_cache_folder, versions
 from .validity.budget import (BUDGET_ROUNDS, QuadratureOptions, disagreement, face_point_budgets, faces_to_refine,
                               grown_budgets, quadrature_options)
 from .cubature import GROUPS
-from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, sample_faces,
-                      tessellation_samples)
+from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, face_display_mesh, sample_faces,
+                      sample_meshes, tessellation_samples)
 from .face_assessment import assess_face
 from ..core.exact_keys import HALF
-from .face_keys import face_key, geometry_digest, settings_digest
+from .face_keys import display_samples_key, face_key, geometry_digest, settings_digest
 from .geometry.face_field import FaceField
 from ..core.processes import resolve_jobs
 from .face_result import FaceAssessment
@@ -298,19 +298,28 @@ class BrepRun:
 
     def display_samples(self, meshes=None):
         """Exact fields at the display nodes (display.sample_faces; meshes: the faces' display
-        meshes when already made); a face without a field or a display mesh is left out of
-        them (it is NOT EVALUATED in its record)."""
+        meshes when already made, then each face's samples through the store: stored_display);
+        a face without a field or a display mesh is left out of them (it is NOT EVALUATED in
+        its record)."""
         faces = self.shape.faces
+        numbers = [n for n, _ in faces]
+        if meshes is None:
+            sample = None
+            whole = lambda: sample_faces([(n, self.display_field(i, f)) for i, (n, f) in enumerate(faces)],  # noqa: E731
+                                         self.deflection)
+        else:
+            def sample(i, mesh):
+                return self.stored_display(i, mesh)
+            whole = lambda: sample_meshes(numbers, meshes, sample)  # noqa: E731
         out = None
         try:
-            out = sample_faces([(n, self.display_field(i, f)) for i, (n, f) in enumerate(faces)], self.deflection,
-                               meshes)
+            out = whole()
         except Exception:  # a face without a field or a display mesh: the others, one by one
             parts = []
             for i, (n, f) in enumerate(faces):
                 try:
-                    parts.append(sample_faces([(n, self.display_field(i, f))], self.deflection,
-                                              None if meshes is None else [meshes[i]]))
+                    parts.append(sample_faces([(n, self.display_field(i, f))], self.deflection) if sample is None
+                                 else sample_meshes([n], [meshes[i]], lambda _, mesh, i=i: sample(i, mesh)))
                 except Exception:  # that face is NOT EVALUATED in its record (left_out)
                     continue
             parts = [p for p in parts if p is not None]
@@ -319,6 +328,18 @@ class BrepRun:
         if out is None:
             raise InputError("the faces could not be sampled (no display tessellation): empty or invalid faces")
         return out
+
+    def stored_display(self, i, mesh):
+        """Face i's display samples on mesh (display.face_display_mesh): from the store under
+        face_keys.display_samples_key (its geometry, the mesh and the run's kind, bit for bit),
+        else made and stored."""
+        make = lambda: face_display_mesh(mesh, self.display_field(i, self.shape.faces[i][1]))  # noqa: E731
+        g = self.geometry[i] if self.store is not None else None
+        if g is None:
+            return make()
+        with self.timed("store_s"):
+            key = display_samples_key(g, mesh, type(self).__name__)
+        return self.store.made(key, make)
 
     def assessment(self):
         """Stage 7: the shape's integrals over the evaluated faces, its signature and their

@@ -72,17 +72,24 @@ def sample_faces(face_fields, deflection, meshes=None):
 
     face_fields: list of (face number, FaceField); meshes: their display tessellations
     (occ_records.display_mesh) when already made, else those of the fields' faces at
-    deflection. Returns dict of concatenated arrays: points (n, 3), triangles (m, 3), uv
-    (n, 2), K, H, k1, k2 (n,), valid (n,) bool, face_id (n,) int (1-based), and node_area
-    (n,) barycentric areas of the display triangles.
+    deflection. Returns sample_meshes's dict, or None when no face has a display node.
     """
-    parts = {k: [] for k in ("points", "triangles", "uv", "K", "H", "k1", "k2", "valid", "face_id")}
-    offset = 0
     if meshes is None:  # meshed in a child where forking is safe: this process starts no mesher threads
         meshes = ForkedCall(lambda: [display_mesh(ff.face, deflection) for _, ff in face_fields]).result()
-    for i, (number, ff) in enumerate(face_fields):
-        mesh = meshes[i]
-        uv, f, T = face_display_mesh(mesh, ff)
+    return sample_meshes([n for n, _ in face_fields], meshes,
+                         lambda i, mesh: face_display_mesh(mesh, face_fields[i][1]))
+
+
+def sample_meshes(numbers, meshes, sample):
+    """The display samples of faces numbered numbers with display meshes meshes, face i's
+    (uv, field values, triangles) given by sample(i, meshes[i]) (face_display_mesh's).
+    Returns dict of concatenated arrays: points (n, 3), triangles (m, 3), uv (n, 2), K, H,
+    k1, k2 (n,), valid (n,) bool, face_id (n,) int (1-based), and node_area (n,)
+    barycentric areas of the display triangles; None when no face has a display node."""
+    parts = {k: [] for k in ("points", "triangles", "uv", "K", "H", "k1", "k2", "valid", "face_id")}
+    offset = 0
+    for i, number in enumerate(numbers):
+        uv, f, T = sample(i, meshes[i])
         if f is None:
             continue
         parts["points"].append(f["points"])

@@ -73,3 +73,11 @@ def face_key(geometry, settings, budget):
     (settings_digest) within budget points (None: no limit): the geometry's first HALF
     digits, then HALF of the rest's."""
     return derived_key(geometry, settings, budget)
+
+
+def display_samples_key(geometry, mesh, reading):
+    """The store key of a face's display samples (display.face_display_mesh): the exact
+    fields at the nodes of its display mesh (occ_records.display_mesh: points, triangles and
+    (u, v)) depend on its geometry, the mesh, how the face was read (the run's kind: which
+    evaluation its field uses) and the software alone."""
+    return derived_key(digest(["display samples", geometry]), software_fingerprint(), reading, list(mesh))
