@@ -302,24 +302,21 @@ class BrepRun:
         a face without a field or a display mesh is left out of them (it is NOT EVALUATED in
         its record)."""
         faces = self.shape.faces
-        numbers = [n for n, _ in faces]
-        if meshes is None:
-            sample = None
-            whole = lambda: sample_faces([(n, self.display_field(i, f)) for i, (n, f) in enumerate(faces)],  # noqa: E731
-                                         self.deflection)
-        else:
-            def sample(i, mesh):
-                return self.stored_display(i, mesh)
-            whole = lambda: sample_meshes(numbers, meshes, sample)  # noqa: E731
+
+        def sampled(which):  # the samples of the faces of indices which
+            if meshes is None:
+                return sample_faces([(faces[i][0], self.display_field(i, faces[i][1])) for i in which],
+                                    self.deflection)
+            return sample_meshes([faces[i][0] for i in which], [meshes[i] for i in which],
+                                 lambda k, mesh: self.stored_display(which[k], mesh))
         out = None
         try:
-            out = whole()
+            out = sampled(range(len(faces)))
         except Exception:  # a face without a field or a display mesh: the others, one by one
             parts = []
-            for i, (n, f) in enumerate(faces):
+            for i in range(len(faces)):
                 try:
-                    parts.append(sample_faces([(n, self.display_field(i, f))], self.deflection) if sample is None
-                                 else sample_meshes([n], [meshes[i]], lambda _, mesh, i=i: sample(i, mesh)))
+                    parts.append(sampled([i]))
                 except Exception:  # that face is NOT EVALUATED in its record (left_out)
                     continue
             parts = [p for p in parts if p is not None]

@@ -20,10 +20,6 @@ def json_safe(obj):
         return obj if math.isfinite(obj) else None
     if t is str or t is int or t is bool or obj is None:
         return obj
-    if t is dict:
-        return {(k if type(k) is str else str(k)): json_safe(v) for k, v in obj.items()}
-    if t is list or t is tuple:
-        return [json_safe(v) for v in obj]
     if isinstance(obj, dict):
         return {str(k): json_safe(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
