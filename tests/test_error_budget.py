@@ -56,6 +56,16 @@ def test_point_budget_stops_the_refinement_and_says_so():
     assert len(r.unconverged_cells) > 0  # what is left unresolved is reported
 
 
+@pytest.mark.parametrize("power, budget, rtol", [(1.0, 2000, 1e-4), (1.5, 2000, 1e-3), (1.5, 3000, 1e-4),
+                                                (1.5, 5000, 1e-4)])
+def test_units_left_pending_by_the_budget_are_counted_once(power, budget, rtol):
+    # the budget stops the refinement after the children of the units left pending were
+    # evaluated: those accepted on their own are not added beside their parents
+    r = integrate(SQUARE, corner_field(power), TAU_H, TAU_K, rtol=rtol, depth_limit=30, point_budget=budget)
+    assert r.budget_spent
+    assert abs(r.values["A"] - 1.0) <= r.errors["A"] + 1e-12
+
+
 def _face(values, errors, tolerances):
     q = SimpleNamespace(values=values, errors=errors,
                         converged={k: errors[k] <= tolerances[k] for k in values})

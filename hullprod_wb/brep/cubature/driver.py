@@ -210,13 +210,20 @@ class Integration:
         per_cell = self.order * self.order
         point_budget = self.point_budget
         while self.active.size and self.depth < depth_limit:
+            # the units left pending on the last level stand for the active cells (their
+            # children): the children accepted on their own replace them only when the
+            # refinement goes on, or all of them are
+            before = (len(self.accepted), self.err_acc, self.active)
             self._accept_own()
             a = self.active
             na = a.size
             if na == 0:
+                self.pending = None
                 break
             if point_budget is not None and self.f.n_points + 4 * na * per_cell > point_budget \
                     and self.pending is not None:
+                del self.accepted[before[0]:]
+                self.err_acc, self.active = before[1], before[2]
                 self.budget_spent = True
                 break
             ch = self.evaluate(child_cells(a), self._prefetched(1, a.row))
