@@ -1,10 +1,11 @@
 """Assessment of one BRep face (paper section 4.1, 4.3): adaptive boundary-fitted cubature
 of the face with the neighbourhoods of its degenerate points excluded, each neighbourhood
-quadrant through its graded map, grading where a refinement stalled at a knot-grid node,
+quadrant through its graded map, each pinch point's box through whitened polar coordinates, grading where a refinement stalled at a knot-grid node,
 the nested-neighbourhood audit of the degenerate set, and the cross-checks."""
 from ..core.progress import null_progress
 from .validity import singular
 from .validity.cross_checks import face_cross_checks
+from .validity.pinch_points import pinch_triangles
 from .cubature import QUANTITIES, integrate, patch_groups
 from ..core.processes import map_forked
 from .face_result import CombinedQuadrature, FaceAssessment, final_result
@@ -42,8 +43,10 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     audits = []
     if deg and opts.audit:
         totals = dict(quad.values)
+        # the pinch points' boxes are integrated in triangles: their quadrants serve the audit
+        audit_quads = quads + singular.neighbourhood_quadrants(deg, domain, s.u_breaks, s.v_breaks, deg.interior)
         for p in deg.audited_points:
-            audits.append(singular.audit_point(ff, p, quads, totals, lref, thresholds.tau_H,
+            audits.append(singular.audit_point(ff, p, audit_quads, totals, lref, thresholds.tau_H,
                                                thresholds.tau_K, order=opts.order))
         for side in deg.sides:
             audits.append(singular.probe_side(ff, domain, side, s.u_breaks, s.v_breaks))
@@ -56,7 +59,8 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
 
 def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_check, point_budget):
     """CombinedQuadrature of a set-up face (FaceSetup s): its patch groups (in group_jobs
-    processes when groups), then each neighbourhood quadrant through its graded map. With
+    processes when groups), then each neighbourhood quadrant through its graded map and
+    each pinch point's triangles through whitened polar coordinates (pinch_points). With
     the budget protocol (not opts.paper) the groups refine by their error down
     to opts.depth_limit within point_budget points (split between the groups); with the
     paper's, to max_depth with a recheck one level deeper (section 5.2)."""
@@ -76,17 +80,18 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     # the area rule is independent of the adaptive cubature: while other groups finish
     parts = map_forked(main_part, len(groups), group_jobs, while_waiting=s.area_check if area_check else None)
     n_main = len(parts)
-    unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0) if quads else None
-    # Each neighbourhood quadrant may use up to a 1/(2 n) share of the face's tolerance; the
-    # graded map makes its integrand smooth, so a shallow tree resolves it.
+    unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0)
+    # Each neighbourhood quadrant or pinch triangle may use up to a 1/(2 n) share of the
+    # face's tolerance; its map makes its integrand smooth, so a shallow tree resolves it.
+    pieces = [singular.GradedQuadrantField(ff, q) for q in quads]
+    pieces += [t for p, ru, rv in s.pinches for t in pinch_triangles(ff, p, ru, rv)]
     main_values = {k: sum(final_result(p).values[k] for p in parts) for k in QUANTITIES}
-    share = {k: abs(v) / (2.0 * max(len(quads), 1)) for k, v in main_values.items()}
+    share = {k: abs(v) / (2.0 * max(len(pieces), 1)) for k, v in main_values.items()}
     qkw = dict(kw, max_depth=min(opts.max_depth, QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
     if not opts.paper:  # refined by the error too, within a share of the face's points
         qkw.update(depth_limit=opts.depth_limit,
                    point_budget=None if point_budget is None else max(1, int(point_budget) // 2))
-    for q in quads:
-        parts.append(integrate(unit, singular.GradedQuadrantField(ff, q), thresholds.tau_H, thresholds.tau_K,
-                               reference=share, **qkw))
+    for piece in pieces:
+        parts.append(integrate(unit, piece, thresholds.tau_H, thresholds.tau_K, reference=share, **qkw))
 
     return CombinedQuadrature(parts, n_main)

@@ -1,6 +1,7 @@
 """The set-up of a BRep face's integration, made before the class thresholds are known:
-its field and trimmed domain, knot lines, degenerate set and the neighbourhood quadrants of
-its degenerate points (paper section 4.3), and its boundary-fitted patches."""
+its field and trimmed domain, knot lines, degenerate set, the neighbourhood quadrants of
+its degenerate points and the boxes of its pinch points (paper section 4.3), and its
+boundary-fitted patches."""
 import functools
 import time
 
@@ -55,17 +56,25 @@ class FaceSetup:
             self.area_check()
 
     def _neighbourhoods(self):
-        """Quadrants of the degenerate set's graded points, the patches' lines gu, gv and the
-        field with the neighbourhoods excluded."""
+        """Quadrants of the degenerate set's graded points, the boxes of its pinch points
+        (pinch_points: each as (point, r_u, r_v), when its four quadrants lie inside the
+        domain), the patches' lines gu, gv and the field with the neighbourhoods excluded."""
         ff, domain, u_breaks, v_breaks = self.ff, self.domain, self.u_breaks, self.v_breaks
         self.quads = singular.neighbourhood_quadrants(self.deg, domain, u_breaks, v_breaks) if self.deg else []
+        self.pinches = []
+        for p in self.deg.interior:
+            around = singular.neighbourhood_quadrants(self.deg, domain, u_breaks, v_breaks, [p])
+            if len(around) == 4:
+                self.pinches.append((p, around[0].ru, around[0].rv))
         self.gu, self.gv = u_breaks, v_breaks
         self.main_field = ff
-        if self.quads:
-            qu, qv = singular.quadrant_breaks(self.quads)
-            self.gu = np.unique(np.concatenate([np.asarray(u_breaks, float), qu]))
-            self.gv = np.unique(np.concatenate([np.asarray(v_breaks, float), qv]))
-            self.main_field = singular.ExcludedBoxesField(ff, [q.box for q in self.quads])
+        boxes = [q.box for q in self.quads] + [(p[0] - ru, p[0] + ru, p[1] - rv, p[1] + rv)
+                                                for p, ru, rv in self.pinches]
+        if boxes:
+            b = np.asarray(boxes, dtype=float)
+            self.gu = np.unique(np.concatenate([np.asarray(u_breaks, float), b[:, 0], b[:, 1]]))
+            self.gv = np.unique(np.concatenate([np.asarray(v_breaks, float), b[:, 2], b[:, 3]]))
+            self.main_field = singular.ExcludedBoxesField(ff, boxes)
         self.prefetch = None
         self.__dict__.pop("patches", None)
 

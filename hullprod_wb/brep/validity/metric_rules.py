@@ -230,7 +230,8 @@ def metric_validity(faces, integrals, values, opts, history, k_f):
     rtol = opts.rtol
     audits = [a for f in faces for a in f.audits]
     verdicts = [a["verdict"] for a in audits]
-    deg_count = sum(len(f.degenerate.points) + len(f.degenerate.sides) for f in faces)
+    deg_count = sum(len(f.degenerate.points) + len(f.degenerate.interior) + len(f.degenerate.sides)
+                    for f in faces)
     fallback = [f.number for f in faces if f.domain.fallback]
     # exact repairs of trim loops (gaps within a vertex's tolerance): no CAUTION, but evidence
     repaired = [f.number for f in faces if f.domain.repairs]

@@ -5,7 +5,9 @@ section 6.2).
 
 A point is degenerate where the area element J = |S_u x S_v| vanishes relative to
 max(E, G) (a collapsed pole row, a pole, parallel tangents). Such points sit at patch
-corners and sides, so they are looked for on the knot grid and along the domain's sides.
+corners and sides, so they are looked for on the knot grid and along the domain's sides;
+isolated ones inside the knot spans (pinch points) are found by Newton's method on
+S_u x S_v = 0 (geometry.degenerate_points) and integrated by pinch_points.
 """
 from dataclasses import dataclass, field
 
@@ -13,10 +15,14 @@ import numpy as np
 
 from ..cubature.cells import grid_points
 from ..cubature import integrate
+from ..geometry.degenerate_points import isolated_zeros
 from ..geometry.trimmed_domain import TrimmedDomain
 
 #: J / max(E, G) below this is degenerate.
 DEGENERATE_RTOL = 1e-8
+#: Points closer than this fraction of the parameter ranges to a knot-grid node or a collapsed
+#: side are that node's or side's.
+NODE_RTOL = 1e-9
 #: Samples per knot span along each side of the parameter rectangle.
 SIDE_SAMPLES = 8
 #: Nested neighbourhoods of the audit: r0 * 2^-k, k = 0..AUDIT_LEVELS-1 (down to about
@@ -49,9 +55,11 @@ HOT_SPOT_FACTOR = 100.0
 
 @dataclass
 class DegenerateSet:
-    """Degenerate points (u, v), collapsed sides ('u0', 'u1', 'v0', 'v1') and hot spots
-    (regular knot-grid nodes where |K| J peaks far above the face's mean: near-degenerate
-    corners) of a face. All get graded refinement; degenerate points are audited."""
+    """Degenerate points (u, v) of the knot grid, collapsed sides ('u0', 'u1', 'v0', 'v1'),
+    hot spots (regular knot-grid nodes where |K| J peaks far above the face's mean:
+    near-degenerate corners) and pinch points (isolated degenerate points inside the knot
+    spans) of a face. The points of the knot grid and the hot spots get graded refinement,
+    the pinch points the whitened polar rule (pinch_points); degenerate points are audited."""
 
     points: list = field(default_factory=list)
     sides: list = field(default_factory=list)
@@ -59,9 +67,12 @@ class DegenerateSet:
     #: knot-grid nodes where the adaptive refinement stalled (points_from_refinement):
     #: graded and audited like degenerate points
     stalled: list = field(default_factory=list)
+    #: pinch points: isolated degenerate points inside the knot spans
+    #: (degenerate_points.isolated_zeros), integrated by pinch_points and audited
+    interior: list = field(default_factory=list)
 
     def __bool__(self):
-        return bool(self.points or self.sides or self.hot_spots or self.stalled)
+        return bool(self.points or self.sides or self.hot_spots or self.stalled or self.interior)
 
     @property
     def graded_points(self):
@@ -71,12 +82,13 @@ class DegenerateSet:
     def audited_points(self):
         """Degenerate points and stalled nodes (a hot spot is a regular node, J > 0: its
         curvature is bounded, and grading it is for speed alone)."""
-        return list(self.points) + list(self.stalled)
+        return list(self.points) + list(self.stalled) + list(self.interior)
 
     def to_dict(self):
         return {"points": [[float(u), float(v)] for u, v in self.points], "collapsed_sides": list(self.sides),
                 "hot_spots": [[float(u), float(v)] for u, v in self.hot_spots],
-                "refinement_stalled": [[float(u), float(v)] for u, v in self.stalled]}
+                "refinement_stalled": [[float(u), float(v)] for u, v in self.stalled],
+                "inside_spans": [[float(u), float(v)] for u, v in self.interior]}
 
 
 def _grid_values(lo, hi, breaks):
@@ -116,6 +128,7 @@ def find_degenerate(face_field, domain, u_breaks, v_breaks):
     inside = _inside_or_on(domain, U, V)
     for u, v in zip(U[bad & ~on_side & inside], V[bad & ~on_side & inside]):
         out.points.append((float(u), float(v)))
+    out.interior = _off_grid_points(face_field, domain, gu, gv, out)
     # Hot spots: regular nodes where the integrand |K| J towers over the face's mean.
     ok = ~bad & ~on_side & inside
     if ok.any():
@@ -129,6 +142,32 @@ def find_degenerate(face_field, domain, u_breaks, v_breaks):
             for u, v in zip(U[ok][q > HOT_SPOT_FACTOR * mean], V[ok][q > HOT_SPOT_FACTOR * mean]):
                 out.hot_spots.append((float(u), float(v)))
     return out
+
+
+def _off_grid_points(face_field, domain, gu, gv, found):
+    """Isolated degenerate points inside the knot spans or on their sides
+    (degenerate_points.isolated_zeros), inside the domain, other than the knot-grid nodes
+    and the collapsed sides of found (DegenerateSet). A surface evaluated point by point is
+    not searched."""
+    if not face_field.evaluator.vectorised:
+        return []
+    pts = isolated_zeros(face_field.evaluator, gu, gv, DEGENERATE_RTOL)
+    if not pts:
+        return []
+    (u0, u1), (v0, v1) = domain.u_range, domain.v_range
+    tu, tv = NODE_RTOL * (u1 - u0), NODE_RTOL * (v1 - v0)
+    sides = {"u0": (0, u0, tu), "u1": (0, u1, tu), "v0": (1, v0, tv), "v1": (1, v1, tv)}
+    out = []
+    for p in pts:
+        at_node = np.abs(gu - p[0]).min() <= tu and np.abs(gv - p[1]).min() <= tv
+        on_side = any(abs(p[axis] - x) <= t for axis, x, t in (sides[k] for k in found.sides))
+        known = any(abs(p[0] - a) <= tu and abs(p[1] - b) <= tv for a, b in found.points)
+        if not (at_node or on_side or known):
+            out.append(p)
+    if not out:
+        return []
+    inside = _inside_or_on(domain, np.array([p[0] for p in out]), np.array([p[1] for p in out]))
+    return [p for p, ok in zip(out, inside) if ok]
 
 
 #: A refinement stalled at a knot-grid node when the sample of largest |K| J lies within
@@ -270,8 +309,9 @@ class ExcludedBoxesField:
         return f
 
 
-def neighbourhood_quadrants(deg, domain, u_breaks, v_breaks):
-    """Quadrants of the neighbourhoods of degenerate points and hot spots, inside the domain.
+def neighbourhood_quadrants(deg, domain, u_breaks, v_breaks, points=None):
+    """Quadrants of the neighbourhoods of degenerate points and hot spots, inside the domain
+    (points: these instead of deg.graded_points).
 
     Each point gets up to four quadrants of half-widths r0 (half the distance to the
     nearest knot line or side); quadrants leaving the parameter range are dropped, and for
@@ -279,7 +319,7 @@ def neighbourhood_quadrants(deg, domain, u_breaks, v_breaks):
     the ordinary adaptive quadrature)."""
     (u0, u1), (v0, v1) = domain.u_range, domain.v_range
     out = []
-    for (pu, pv) in deg.graded_points:
+    for (pu, pv) in (deg.graded_points if points is None else points):
         ru = grading_radius(pu, u0, u1, u_breaks)
         rv = grading_radius(pv, v0, v1, v_breaks)
         for su in (-1, 1):
