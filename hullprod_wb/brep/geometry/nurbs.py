@@ -9,7 +9,8 @@ and weights w_ij is (eq:brep_surface)
 with w_ij = 1 for a non-rational surface (then S = A). The basis functions and their
 first and second derivatives are computed for all points at once with the Cox-de Boor
 triangle and its derivative recurrence (algorithms A2.2/A2.3 of Piegl and Tiller,
-The NURBS Book), vectorised over the points; rational derivatives follow from the
+The NURBS Book), vectorised over the points, or for small batches from their polynomial
+tables span by span (span_polynomials, made from the same recurrences); rational derivatives follow from the
 quotient rule applied to the homogeneous coordinates (A, w).
 
 Spans are located with ``np.searchsorted`` and clamped to the first and last non-empty
@@ -27,6 +28,7 @@ import numpy as np
 from ...core.errors import InputError
 from ..cubature.cells import grid_points
 from ..reading.occ_records import nurbs_record
+from .span_polynomials import TABLE_POINTS, SpanPolynomials
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
@@ -42,18 +44,6 @@ def as_points(u, v):
         raise InputError("parameter arrays u and v have incompatible shapes: %s" % exc) from exc
     return np.ascontiguousarray(uu).ravel(), np.ascontiguousarray(vv).ravel()
 
-
-
-def find_spans(knots, degree, x):
-    """Span index i with knots[i] <= x < knots[i+1] for every x, shape (n,) int.
-
-    Clamped to the first and last non-empty spans inside [knots[p], knots[n_poles]], so x
-    at (or beyond) the end of the domain falls in the last non-empty span.
-    """
-    n_poles = len(knots) - degree - 1
-    nonempty = np.nonzero(knots[degree:n_poles] < knots[degree + 1:n_poles + 1])[0] + degree
-    span = np.searchsorted(knots, x, side="right") - 1
-    return np.clip(span, nonempty[0], nonempty[-1])
 
 
 def basis_derivatives(knots, degree, span, x, order=2):
@@ -166,6 +156,7 @@ class NurbsSurfaceData:
     vmults: np.ndarray = None
     _pw_t: np.ndarray = field(default=None, init=False, repr=False)  # (dim, nu*nv) homogeneous poles
     _center: np.ndarray = field(default=None, init=False, repr=False)  # (3,) pole bounding-box centre
+    _bases: tuple = field(default=None, init=False, repr=False)  # SpanPolynomials in u and v, when made
 
     def __post_init__(self):
         p, q = int(self.udegree), int(self.vdegree)
@@ -265,6 +256,14 @@ class NurbsSurfaceData:
                            period=period, min_continuity=min_continuity)
 
     # ------------------------------------------------------------------ evaluation
+    @property
+    def bases(self):
+        """The basis functions in u and v, span by span (SpanPolynomials), made once."""
+        if self._bases is None:
+            self._bases = (SpanPolynomials(self.uknots, self.udegree, basis_derivatives),
+                           SpanPolynomials(self.vknots, self.vdegree, basis_derivatives))
+        return self._bases
+
     def _wrap(self, x, period, rng):
         """Reduce periodic parameters outside [first, last] into the base period."""
         if period is None:
@@ -325,8 +324,9 @@ class NurbsSurfaceData:
         b = v.shape[1]
         u = self._wrap(u.ravel(), self.uperiod, self.urange).reshape(n, a)
         v = self._wrap(v.ravel(), self.vperiod, self.vrange).reshape(n, b)
-        su = find_spans(self.uknots, self.udegree, u.ravel()).reshape(n, a)
-        sv = find_spans(self.vknots, self.vdegree, v.ravel()).reshape(n, b)
+        bu, bv = self.bases
+        su = bu.spans(u.ravel()).reshape(n, a)
+        sv = bv.spans(v.ravel()).reshape(n, b)
         one = (su == su[:, :1]).all(1) & (sv == sv[:, :1]).all(1)
         nout = (1, 3, 6)[order]
         out = [np.empty((n, a, b, 3)) for _ in range(nout)]
@@ -352,8 +352,8 @@ class NurbsSurfaceData:
         b = v.shape[1]
         L = order + 1
         dim = self._pw_t.shape[0]
-        bu = basis_derivatives(self.uknots, p, np.repeat(su, a), u.ravel(), order)  # (L, p+1, m a)
-        bv = basis_derivatives(self.vknots, q, np.repeat(sv, b), v.ravel(), order)  # (L, q+1, m b)
+        bu = self.bases[0].basis(np.repeat(su, a), u.ravel(), order)  # (L, p+1, m a)
+        bv = self.bases[1].basis(np.repeat(sv, b), v.ravel(), order)  # (L, q+1, m b)
         nv = self.poles.shape[1]
         offs = np.arange(p + 1)[:, None] * nv + np.arange(q + 1)[None, :]
         ctrl = self._pw_t.T[offs.T[None] + ((su - p) * nv + (sv - q))[:, None, None]]  # (m, q+1, p+1, dim)
@@ -375,16 +375,16 @@ class NurbsSurfaceData:
         """Derivatives for one block of points; arrays are laid out points-last, (dim, n)."""
         p, q = self.udegree, self.vdegree
         nv = self.poles.shape[1]
-        su = find_spans(self.uknots, p, u)
-        sv = find_spans(self.vknots, q, v)
-        if p == q:  # both directions in one pass (the recurrences run per point)
+        basis_u, basis_v = self.bases
+        su, sv = basis_u.spans(u), basis_v.spans(v)
+        if p == q and u.size > TABLE_POINTS // 2:  # both directions in one pass of the recurrences
             nu = len(self.uknots)
             b = basis_derivatives(np.concatenate((self.uknots, self.vknots)), p,
                                   np.concatenate((su, sv + nu)), np.concatenate((u, v)), order)
             bu, bv = b[:, :, :u.size], b[:, :, u.size:]
         else:
-            bu = basis_derivatives(self.uknots, p, su, u, order)  # (order+1, p+1, n)
-            bv = basis_derivatives(self.vknots, q, sv, v, order)  # (order+1, q+1, n)
+            bu = basis_u.basis(su, u, order)  # (order+1, p+1, n)
+            bv = basis_v.basis(sv, v, order)  # (order+1, q+1, n)
         base = (su - p) * nv + (sv - q)
         offs = np.arange(p + 1)[:, None] * nv + np.arange(q + 1)[None, :]
         ctrl = np.take(self._pw_t, offs[:, :, None] + base[None, None, :], axis=1)  # (dim, p+1, q+1, n)

@@ -13,7 +13,8 @@ import math
 import numpy as np
 
 from ...core.errors import InputError
-from .nurbs import basis_derivatives, find_spans
+from .nurbs import basis_derivatives
+from .span_polynomials import SpanPolynomials
 from ..reading.occ_records import pcurve_record, xy
 
 #: Samples per polynomial span of a p-curve (bracketing of u-extrema and crossings).
@@ -76,6 +77,7 @@ class NurbsCurve2D(Curve2D):
         vs = self.poles[:, 1]
         span_v = np.ptp(vs)
         self.horizontal_v = float(vs[0]) if span_v <= 1e-15 * max(1.0, abs(vs[0])) else None
+        self._basis = None  # SpanPolynomials, made at the first evaluation
 
     @classmethod
     def line(cls, p0, p1, s0=0.0, s1=1.0):
@@ -85,8 +87,10 @@ class NurbsCurve2D(Curve2D):
     def _eval(self, s):
         s = np.asarray(s, dtype=float).ravel()
         p = self.degree
-        span = find_spans(self.knots, p, s)
-        B = basis_derivatives(self.knots, p, span, s, order=1)
+        if self._basis is None:
+            self._basis = SpanPolynomials(self.knots, p, basis_derivatives)
+        span = self._basis.spans(s)
+        B = self._basis.basis(span, s, order=1)
         N, dN = B[0].T, B[1].T
         idx = span[:, None] - p + np.arange(p + 1)[None, :]
         w = self.weights[idx]
