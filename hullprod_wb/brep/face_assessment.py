@@ -80,11 +80,11 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     # the area rule is independent of the adaptive cubature: while other groups finish
     parts = map_forked(main_part, len(groups), group_jobs, while_waiting=s.area_check if area_check else None)
     n_main = len(parts)
-    unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0)
     # Each neighbourhood quadrant or pinch triangle may use up to a 1/(2 n) share of the
     # face's tolerance; its map makes its integrand smooth, so a shallow tree resolves it.
     pieces = [singular.GradedQuadrantField(ff, q) for q in quads]
     pieces += [t for p, ru, rv in s.pinches for t in pinch_triangles(ff, p, ru, rv)]
+    unit = TrimmedDomain.rectangle(0.0, 1.0, 0.0, 1.0) if pieces else None
     main_values = {k: sum(final_result(p).values[k] for p in parts) for k in QUANTITIES}
     share = {k: abs(v) / (2.0 * max(len(pieces), 1)) for k, v in main_values.items()}
     qkw = dict(kw, max_depth=min(opts.max_depth, QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
