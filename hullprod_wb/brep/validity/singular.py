@@ -103,25 +103,27 @@ def find_degenerate(face_field, domain, u_breaks, v_breaks):
     gu = _grid_values(u0, u1, u_breaks)
     gv = _grid_values(v0, v1, v_breaks)
 
-    def degenerate_at(u, v):
-        S, Su, Sv, *_ = face_field.evaluator.derivatives(u, v)
-        J = np.linalg.norm(np.cross(Su, Sv), axis=1)
-        scale = np.maximum((Su * Su).sum(1), (Sv * Sv).sum(1))
-        return ~(J > DEGENERATE_RTOL * scale)
-
     out = DegenerateSet()
-    # Sides: collapsed when every sample along the side is degenerate.
+    # Sides: collapsed when every sample along the side is degenerate; the samples of the
+    # four sides and the knot-grid nodes in one evaluation
     t = np.linspace(0.0, 1.0, SIDE_SAMPLES + 1)
     su = np.unique(np.concatenate([a + (b - a) * t for a, b in zip(gu[:-1], gu[1:])]))
     sv = np.unique(np.concatenate([a + (b - a) * t for a, b in zip(gv[:-1], gv[1:])]))
-    for name, (uu, vv) in {"v0": (su, np.full_like(su, v0)), "v1": (su, np.full_like(su, v1)),
-                           "u0": (np.full_like(sv, u0), sv), "u1": (np.full_like(sv, u1), sv)}.items():
-        if degenerate_at(uu, vv).all():
-            out.sides.append(name)
-    # Isolated points at knot-grid nodes not on a collapsed side.
+    sides = {"v0": (su, np.full_like(su, v0)), "v1": (su, np.full_like(su, v1)),
+             "u0": (np.full_like(sv, u0), sv), "u1": (np.full_like(sv, u1), sv)}
     U, V = np.meshgrid(gu, gv, indexing="ij")
     U, V = U.ravel(), V.ravel()
-    bad = degenerate_at(U, V)
+    _, Su, Sv = face_field.evaluator.first_derivatives(np.concatenate([uu for uu, _ in sides.values()] + [U]),
+                                                       np.concatenate([vv for _, vv in sides.values()] + [V]))
+    J = np.linalg.norm(np.cross(Su, Sv), axis=1)
+    degenerate = ~(J > DEGENERATE_RTOL * np.maximum((Su * Su).sum(1), (Sv * Sv).sum(1)))
+    start = 0
+    for name, (uu, _) in sides.items():
+        if degenerate[start:start + uu.size].all():
+            out.sides.append(name)
+        start += uu.size
+    # Isolated points at knot-grid nodes not on a collapsed side.
+    bad = degenerate[start:]
     on_side = np.zeros_like(bad)
     for name in out.sides:
         on_side |= {"v0": V == v0, "v1": V == v1, "u0": U == u0, "u1": U == u1}[name]
@@ -134,10 +136,10 @@ def find_degenerate(face_field, domain, u_breaks, v_breaks):
     if ok.any():
         g = (np.arange(16) + 0.5) / 16
         mu, mv = np.meshgrid(u0 + (u1 - u0) * g, v0 + (v1 - v0) * g, indexing="ij")
-        fm = face_field(mu.ravel(), mv.ravel())
-        mean = np.nanmean(np.where(fm["regular"], np.abs(fm["K"]) * fm["J"], np.nan))
-        fn = face_field(U[ok], V[ok])
-        q = np.where(fn["regular"], np.abs(fn["K"]) * fn["J"], 0.0)
+        f = face_field(np.concatenate((mu.ravel(), U[ok])), np.concatenate((mv.ravel(), V[ok])))
+        KJ = np.where(f["regular"], np.abs(f["K"]) * f["J"], np.nan)
+        mean = np.nanmean(KJ[:mu.size])
+        q = np.nan_to_num(KJ[mu.size:], nan=0.0)
         if np.isfinite(mean) and mean > 0:
             for u, v in zip(U[ok][q > HOT_SPOT_FACTOR * mean], V[ok][q > HOT_SPOT_FACTOR * mean]):
                 out.hot_spots.append((float(u), float(v)))
