@@ -7,11 +7,11 @@ and weights w_ij is (eq:brep_surface)
                                    w = sum_ij N_ip(u) N_jq(v) w_ij,
 
 with w_ij = 1 for a non-rational surface (then S = A). The basis functions and their
-first and second derivatives are computed for all points at once with the Cox-de Boor
-triangle and its derivative recurrence (algorithms A2.2/A2.3 of Piegl and Tiller,
-The NURBS Book), vectorised over the points, or for small batches from their polynomial
-tables span by span (span_polynomials, made from the same recurrences); rational derivatives follow from the
-quotient rule applied to the homogeneous coordinates (A, w).
+first and second derivatives come from their polynomial tables span by span
+(span_polynomials), made with the Cox-de Boor triangle and its derivative recurrence
+(algorithms A2.2/A2.3 of Piegl and Tiller, The NURBS Book, basis_derivatives here,
+vectorised over the points); rational derivatives follow from the quotient rule applied to
+the homogeneous coordinates (A, w).
 
 Spans are located with ``np.searchsorted`` and clamped to the first and last non-empty
 span, so evaluation exactly at the end of the domain uses the last span (left limit)
@@ -28,7 +28,7 @@ import numpy as np
 from ...core.errors import InputError
 from ..cubature.cells import grid_points
 from ..reading.occ_records import nurbs_record
-from .span_polynomials import TABLE_POINTS, SpanPolynomials
+from .span_polynomials import SpanPolynomials
 
 #: Points evaluated per block; bounds the temporary (4, p+1, q+1, block) pole gather.
 CHUNK = 8192
@@ -377,14 +377,8 @@ class NurbsSurfaceData:
         nv = self.poles.shape[1]
         basis_u, basis_v = self.bases
         su, sv = basis_u.spans(u), basis_v.spans(v)
-        if p == q and u.size > TABLE_POINTS // 2:  # both directions in one pass of the recurrences
-            nu = len(self.uknots)
-            b = basis_derivatives(np.concatenate((self.uknots, self.vknots)), p,
-                                  np.concatenate((su, sv + nu)), np.concatenate((u, v)), order)
-            bu, bv = b[:, :, :u.size], b[:, :, u.size:]
-        else:
-            bu = basis_u.basis(su, u, order)  # (order+1, p+1, n)
-            bv = basis_v.basis(sv, v, order)  # (order+1, q+1, n)
+        bu = basis_u.basis(su, u, order)  # (order+1, p+1, n)
+        bv = basis_v.basis(sv, v, order)  # (order+1, q+1, n)
         base = (su - p) * nv + (sv - q)
         offs = np.arange(p + 1)[:, None] * nv + np.arange(q + 1)[None, :]
         ctrl = np.take(self._pw_t, offs[:, :, None] + base[None, None, :], axis=1)  # (dim, p+1, q+1, n)

@@ -1,21 +1,21 @@
 """B-spline basis functions as polynomials on their knot spans, for evaluation in batches.
 
 On the span [U_i, U_i+1) the p + 1 non-zero basis functions N_{i-p+r, p} (r = 0..p) are
-polynomials of degree p. Their Taylor coefficients at U_i, c_rk = N^(k)(U_i) / k! (right
-limits: the Cox-de Boor triangle and its derivative recurrence, NURBS book A2.2/A2.3, at the
-span's left knot), give d^d/dx^d N_r(x) = sum_j c_r,j+d (j + d)! / j! t^j with t = x - U_i:
-one gather of a span's table and one product per batch of points, whatever the degree,
-instead of the recurrences' O(p^2) array operations per call (for the small batches of
-line crossings and trim curves, where those operations' overhead is the cost).
+polynomials of degree p. Their Taylor coefficients at a point c, a_rk = N^(k)(c) / k! (the
+Cox-de Boor triangle and its derivative recurrence, NURBS book A2.2/A2.3), give
+d^d/dx^d N_r(x) = sum_j a_r,j+d (j + d)! / j! t^j with t = x - c: one gather of a table
+and one product per batch of points, whatever the degree, instead of the recurrences'
+O(p^2) array operations per call. Each span keeps three expansions: about its midpoint
+for the points inside (|t| <= (U_i+1 - U_i) / 2, where the power basis stays within a few
+units of rounding of the recurrences up to degree 9; about a knot it loses one to three
+digits there), and about its two knots for the points on them (t = 0: the recurrences'
+values there, exact zeros at clamped ends and collapsed sides included; at U_i+1
+the span's left limit). Every batch, of any size, takes the tables, so a point's value
+does not depend on the batch it is evaluated in.
 """
 import math
 
 import numpy as np
-
-#: Batches of at most this many points take the span tables; larger ones the recurrences,
-#: whose O(p^2) operations on long arrays cost less than the tables' gather (each is exact
-#: to the rounding of the other).
-TABLE_POINTS = 2048
 
 
 class SpanPolynomials:
@@ -24,8 +24,8 @@ class SpanPolynomials:
     spans(x): the span index i of every x (knots[i] <= x < knots[i+1]), clamped to the
     first and last non-empty spans; basis(span, x, order): the non-zero basis functions and
     their derivatives, (order + 1, p + 1, n), out[k, r, m] = d^k/dx^k N_{span[m]-p+r, p}(x[m])
-    (derivative orders above p are zero). recurrence: the recurrences themselves
-    (nurbs.basis_derivatives), which make the tables and take the large batches."""
+    (derivative orders above p are zero). recurrence: nurbs.basis_derivatives, which makes
+    the tables."""
 
     def __init__(self, knots, degree, recurrence):
         self.knots = np.ascontiguousarray(knots, dtype=float)
@@ -33,20 +33,24 @@ class SpanPolynomials:
         n_poles = len(self.knots) - p - 1
         nonempty = np.nonzero(self.knots[p:n_poles] < self.knots[p + 1:n_poles + 1])[0] + p
         self.first, self.last = int(nonempty[0]), int(nonempty[-1])
-        idx = np.arange(p, n_poles)
-        # derivatives of every order up to p at each span's left knot (right limits)
-        taylor = recurrence(self.knots, p, idx, self.knots[idx], order=p)  # (p+1, p+1, spans)
-        taylor = np.where((self.knots[idx] < self.knots[idx + 1])[None, None, :], taylor, 0.0)
+        n_spans = n_poles - p
+        left, right = self.knots[p:n_poles], self.knots[p + 1:n_poles + 1]
+        self.centre = 0.5 * (left + right)
+        # three expansions a span i: row 3 (i - p) about its midpoint, + 1 about U_i, + 2
+        # about U_i+1 (the span's polynomial there, its left limit); empty spans are never used
+        self.origin = np.stack((self.centre, left, right), axis=1).ravel()
+        rows = (3 * (nonempty - p)[:, None] + np.arange(3)[None, :]).ravel()
+        taylor = np.zeros((p + 1, p + 1, 3 * n_spans))
+        taylor[:, :, rows] = recurrence(self.knots, p, np.repeat(nonempty, 3), self.origin[rows], order=p)
         fact = np.array([math.factorial(k) for k in range(p + 1)], dtype=float)
-        c = taylor / fact[:, None, None]  # c[k, r, span]
-        # table[span, d, r, j] = c[j + d, r] (j + d)! / j!: the j-th power's coefficient of
+        a = taylor / fact[:, None, None]  # a[k, r, row]
+        # table[row, d, r, j] = a[j + d, r] (j + d)! / j!: the j-th power's coefficient of
         # the d-th derivative
-        table = np.zeros((idx.size, p + 1, p + 1, p + 1))
+        table = np.zeros((3 * n_spans, p + 1, p + 1, p + 1))
         for d in range(p + 1):
             for j in range(p + 1 - d):
-                table[:, d, :, j] = (c[j + d] * (fact[j + d] / fact[j])).T
+                table[:, d, :, j] = (a[j + d] * (fact[j + d] / fact[j])).T
         self.table = np.ascontiguousarray(table)
-        self.recurrence = recurrence
 
     def spans(self, x):
         span = np.searchsorted(self.knots, x, side="right") - 1
@@ -54,14 +58,14 @@ class SpanPolynomials:
 
     def basis(self, span, x, order=2):
         p = self.p
-        if x.size > TABLE_POINTS:
-            return self.recurrence(self.knots, p, span, x, order)
-        t = x - self.knots[span]
+        first = 3 * (span - p)
+        row = first + np.where(x == self.origin[first + 1], 1, np.where(x == self.origin[first + 2], 2, 0))
+        t = x - self.origin[row]
         powers = np.empty((t.size, p + 1))
         powers[:, 0] = 1.0
         for j in range(1, p + 1):
             powers[:, j] = powers[:, j - 1] * t
         top = min(order, p)
         out = np.zeros((order + 1, p + 1, t.size))
-        out[:top + 1] = np.einsum("ndrj,nj->drn", self.table[span - p, :top + 1], powers)
+        out[:top + 1] = np.einsum("ndrj,nj->drn", self.table[row, :top + 1], powers)
         return out
