@@ -42,8 +42,8 @@ def test_tables_agree_with_the_recurrences_to_a_few_units_of_rounding(p):
 
 
 def test_a_point_has_the_same_derivatives_in_any_batch():
-    """A rational surface evaluated at 3000 points at once and in batches of 7: the same
-    numbers to the bit (the integrals do not depend on how the points are grouped)."""
+    """A rational surface evaluated at 3000 points at once, in batches of 7 and one by one:
+    the same numbers to the bit (the integrals do not depend on how the points are grouped)."""
     rng = np.random.default_rng(5)
     p, q = 3, 2
     ku, kv = knot_vector(rng, p, 0.0), knot_vector(rng, q, 0.0)
@@ -54,3 +54,5 @@ def test_a_point_has_the_same_derivatives_in_any_batch():
     sevens = np.concatenate([np.stack(data.derivatives(u[s:s + 7], v[s:s + 7]))
                              for s in range(0, u.size, 7)], axis=1)
     assert np.array_equal(whole, sevens)
+    ones = np.concatenate([np.stack(data.derivatives(u[s:s + 1], v[s:s + 1])) for s in range(200)], axis=1)
+    assert np.array_equal(whole[:, :200], ones)

@@ -372,7 +372,11 @@ class NurbsSurfaceData:
         return [h.T for h in rational_quotient([h.T for h in hom])]
 
     def _evaluate_block(self, u, v, order):
-        """Derivatives for one block of points; arrays are laid out points-last, (dim, n)."""
+        """Derivatives for one block of points; arrays are laid out points-last, (dim, n).
+        A lone point is evaluated as a pair with itself: einsum sums a length-1 points axis
+        in another order, and a point's value must not depend on its batch."""
+        if u.size == 1:
+            return [h[:1] for h in self._evaluate_block(np.repeat(u, 2), np.repeat(v, 2), order)]
         p, q = self.udegree, self.vdegree
         nv = self.poles.shape[1]
         basis_u, basis_v = self.bases
