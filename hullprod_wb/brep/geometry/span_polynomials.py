@@ -35,10 +35,10 @@ class SpanPolynomials:
         self.first, self.last = int(nonempty[0]), int(nonempty[-1])
         n_spans = n_poles - p
         left, right = self.knots[p:n_poles], self.knots[p + 1:n_poles + 1]
-        self.centre = 0.5 * (left + right)
+        centre = 0.5 * (left + right)
         # three expansions a span i: row 3 (i - p) about its midpoint, + 1 about U_i, + 2
         # about U_i+1 (the span's polynomial there, its left limit); empty spans are never used
-        self.origin = np.stack((self.centre, left, right), axis=1).ravel()
+        self.origin = np.stack((centre, left, right), axis=1).ravel()
         rows = (3 * (nonempty - p)[:, None] + np.arange(3)[None, :]).ravel()
         taylor = np.zeros((p + 1, p + 1, 3 * n_spans))
         taylor[:, :, rows] = recurrence(self.knots, p, np.repeat(nonempty, 3), self.origin[rows], order=p)
