@@ -18,6 +18,16 @@ max(E, G) by default (so both a vanishing tangent, e.g. at a sphere pole or a co
 pole row, and parallel tangents are caught: J / max(E, G) = sin(angle) * min|S_.| / max|S_.|),
 or a caller-given reference value of |S_u||S_v|. At non-regular points the normal and all
 curvature quantities are NaN; E, F, G, D, J stay as computed.
+
+Given bounds r of the rounding of the derivatives (r_u, r_v, r_uu, r_uv, r_vv, absolute,
+nurbs.NurbsSurfaceData.rounding) and a curvature scale c of the surface (the
+Gaussian curvature 1 / R^2 of a sphere of its poles' size), K is zero where |K| is within
+its own rounding bound b (k_rounding_bound), b <= c, and the point is nearly developable
+(|K| <= NEAR_DEVELOPABLE (k1^2 + k2^2), k1^2 + k2^2 = 4 H^2 - 2 K): a developable face (a
+plate, a cylinder or cone as a B-spline) then has K = 0 instead of noise of either sign,
+which no refinement reduces. Where b exceeds the surface's own curvature scale (towards a collapsed
+side, where J -> 0 and the normal's rounding is large), K keeps its computed value: it is
+not known to be zero there, only not known.
 """
 from typing import NamedTuple, Optional
 
@@ -27,6 +37,10 @@ from ...core.errors import InputError
 
 #: Default relative threshold on J for the regularity test (see module docstring).
 DEFAULT_DEGENERACY_EPS = 1e-10
+#: K counts as zero to rounding only at nearly developable points, |K| <= NEAR_DEVELOPABLE
+#: (k1^2 + k2^2) (module doc): where K's rounding bound is larger than that, the curvatures
+#: themselves are not resolved.
+NEAR_DEVELOPABLE = 1e-6
 
 
 class SurfaceDifferentials(NamedTuple):
@@ -123,11 +137,14 @@ def _derivative_arrays(derivatives):
     return (su,) + tuple(_check(name, a, n) for name, a in zip(("Sv", "Suu", "Suv", "Svv"), derivatives[1:]))
 
 
-def curvature_fields(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS, scale=None):
+def curvature_fields(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS, scale=None, rounding=None):
     """Fundamental forms, J, H, K and regularity at n points (the module doc's formulas),
     computed on the x, y, z components; derivatives, orientation_sign, eps and scale as for
     surface_differentials, which adds the normal as (n, 3) vectors and the principal
-    curvatures. Returns a CurvatureFields."""
+    curvatures; rounding None or (r_of, c): r_of(i) the derivatives' rounding bounds
+    (len(i), 5) at the points of indices i, c the surface's curvature scale; K is set to zero
+    within k_rounding_bound where that is at most c at nearly developable points (module doc).
+    Returns a CurvatureFields."""
     if orientation_sign not in (1, -1):
         raise InputError("orientation_sign must be +1 or -1, got %r" % (orientation_sign,))
     su, sv, suu, suv, svv = (_components(a) for a in _derivative_arrays(derivatives))
@@ -153,7 +170,33 @@ def curvature_fields(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS
         inv_d = np.where(regular, 1.0 / np.where(regular, D, 1.0), np.nan)
         H = (e * G - 2.0 * f * F + g * E) * (0.5 * inv_d)
         K = (e * g - f * f) * inv_d
+        if rounding is not None:  # the candidates: |K| <= c at nearly developable points
+            r_of, scale_K = rounding
+            aK = np.abs(K)
+            i = np.nonzero((aK <= scale_K) & (aK <= NEAR_DEVELOPABLE * np.abs(4.0 * H * H - 2.0 * K)))[0]
+            if i.size:
+                b = k_rounding_bound(E[i], G[i], J[i], e[i], f[i], g[i], suu[:, i], suv[:, i], svv[:, i], r_of(i))
+                K[i[(np.abs(K[i]) <= b) & (b <= scale_K)]] = 0.0
     return CurvatureFields(E, F, G, D, J, normal, e, f, g, H, K, regular)
+
+
+def k_rounding_bound(E, G, J, e, f, g, suu, suv, svv, r):
+    """Bound of the rounding of K = (eg - f^2) / D from the derivatives' rounding bounds r
+    (n, 5) (r_u, r_v, r_uu, r_uv, r_vv), to first order and with the products of the
+    second form's errors: the unit normal is within nu = (3 eps |S_u||S_v| + r_u |S_v| +
+    |S_u| r_v) / J + 3 eps (cross product, normalisation, dot products), so de = r_uu +
+    nu |S_uu| (df, dg likewise), and
+    |dK| <= (|g| de + |e| dg + 2 |f| df + de dg + df^2 + 2 eps (|eg| + f^2)) / D.
+    suu, suv, svv: x, y, z rows (3, n). Returns (n,) float."""
+    ulp = np.finfo(float).eps
+    r = np.asarray(r, dtype=float).T
+    su, sv = np.sqrt(E), np.sqrt(G)
+    nu = (3.0 * ulp * su * sv + r[0] * sv + su * r[1]) / J + 3.0 * ulp
+    de = r[2] + nu * np.sqrt((suu * suu).sum(0))
+    df = r[3] + nu * np.sqrt((suv * suv).sum(0))
+    dg = r[4] + nu * np.sqrt((svv * svv).sum(0))
+    ae, af, ag = np.abs(e), np.abs(f), np.abs(g)
+    return (ag * de + ae * dg + 2.0 * af * df + de * dg + df * df + 2.0 * ulp * (ae * ag + af * af)) / (J * J)
 
 
 def principal_curvatures(H, K):
@@ -164,7 +207,7 @@ def principal_curvatures(H, K):
 
 
 def surface_differentials(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS, scale=None,
-                          directions=False):
+                          directions=False, rounding=None):
     """Fundamental forms, normal, H, K and principal curvatures at n points.
 
     derivatives: (S, Su, Sv, Suu, Suv, Svv) or (Su, Sv, Suu, Suv, Svv), each (n, 3) float.
@@ -172,9 +215,10 @@ def surface_differentials(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERAC
     eps, scale: regular iff J > eps * scale; scale None means max(E, G) per point, else a
         scalar or (n,) reference magnitude of |S_u||S_v|.
     directions: also return the principal directions (unit (n, 3) vectors in 3-D).
+    rounding: None or the derivatives' rounding bounds and curvature scale (curvature_fields).
     Returns a SurfaceDifferentials.
     """
-    c = curvature_fields(derivatives, orientation_sign, eps, scale)
+    c = curvature_fields(derivatives, orientation_sign, eps, scale, rounding)
     normal = c.normal_xyz.T
     k1, k2 = principal_curvatures(c.H, c.K)
     dir1 = dir2 = None

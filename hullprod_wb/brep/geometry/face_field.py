@@ -26,7 +26,7 @@ class FaceField:
         u = np.asarray(u, dtype=float).ravel()
         v = np.asarray(v, dtype=float).ravel()
         self.points_evaluated += u.size
-        return self._fields(self.evaluator.derivatives(u, v))
+        return self._fields(self.evaluator.derivatives(u, v), self.evaluator.rounding(lambda i: (u[i], v[i])))
 
     def grid(self, u, v):
         """The field on the tensor grids u (n, a) x v (n, b) (SurfaceEvaluator.grid_derivatives),
@@ -34,12 +34,18 @@ class FaceField:
         grids, without k1 and k2."""
         der = self.evaluator.grid_derivatives(u, v)
         self.points_evaluated += der[0].shape[0]
-        return self._fields(der, principal=False)
+        u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
+        a, b = u.shape[1], v.shape[1]
 
-    def _fields(self, der, principal=True):
+        def uv_of(i):  # point i = (c a + k) b + l of the grids: (u[c, k], v[c, l])
+            return u.ravel()[i // b], v.ravel()[(i // (a * b)) * b + i % b]
+        return self._fields(der, self.evaluator.rounding(uv_of), principal=False)
+
+    def _fields(self, der, rounding, principal=True):
         """dict(J, K, H, regular, points) and, with principal, k1 >= k2 (the cubature's
-        grids go without)."""
-        d = curvature_fields(der, orientation_sign=self.sign)
+        grids go without); K zero within its rounding where the derivatives' rounding
+        bounds are known (differential.curvature_fields)."""
+        d = curvature_fields(der, orientation_sign=self.sign, rounding=rounding)
         out = {"J": d.J, "K": d.K, "H": d.H, "regular": d.regular, "points": der[0]}
         if principal:
             out["k1"], out["k2"] = principal_curvatures(d.H, d.K)

@@ -18,6 +18,14 @@ span, so evaluation exactly at the end of the domain uses the last span (left li
 and interior knots are right-continuous. Periodic directions are evaluated on the
 un-periodised pole/knot arrays of a copy of the surface (``setUNotPeriodic`` keeps the
 parameterisation) after reducing parameters outside the base period into it.
+
+rounding(u, v) bounds the rounding of the computed derivatives: a contraction
+sum_ij N_i^(k)(u) N_j^(l)(v) Pw_ij of n = (p + 1)(q + 1) terms is within gamma_n sum_ij
+|N_i^(k)| |N_j^(l)| |Pw_ij| of its exact value (Higham, Accuracy and Stability of Numerical
+Algorithms, eq. 3.5), taken as ROUNDING_TERMS n eps R sum_i |N_i^(k)| sum_j |N_j^(l)| with R
+the largest pole distance from the poles' centre (rational: of the homogeneous poles, and of
+w times S in the quotient rule, over the smallest weight); the factor ROUNDING_TERMS covers
+the basis values' own rounding, of the same size.
 """
 import math
 from dataclasses import dataclass, field
@@ -34,6 +42,8 @@ from .span_polynomials import SpanPolynomials
 CHUNK = 8192
 #: Grids evaluated per block by evaluate_grid; bounds its products (block x 9 a b x 4 floats).
 GRID_CHUNK = 1024
+#: Multiple of the contraction's n eps in the derivatives' rounding bounds (module doc).
+ROUNDING_TERMS = 2.0
 
 
 def as_points(u, v):
@@ -157,6 +167,9 @@ class NurbsSurfaceData:
     _pw_t: np.ndarray = field(default=None, init=False, repr=False)  # (dim, nu*nv) homogeneous poles
     _center: np.ndarray = field(default=None, init=False, repr=False)  # (3,) pole bounding-box centre
     _bases: tuple = field(default=None, init=False, repr=False)  # SpanPolynomials in u and v, when made
+    _rounding_scale: float = field(default=None, init=False, repr=False)  # the bounds' n eps R (module doc)
+    #: 1 / R^2 of the poles' size R: the Gaussian curvature of a sphere of that size
+    curvature_scale: float = field(default=None, init=False, repr=False)
 
     def __post_init__(self):
         p, q = int(self.udegree), int(self.vdegree)
@@ -202,6 +215,12 @@ class NurbsSurfaceData:
         else:
             pw = np.concatenate([local * self.weights[..., None], self.weights[..., None]], axis=2)
         self._pw_t = np.ascontiguousarray(pw.reshape(nu * nv, pw.shape[2]).T)  # (dim, nu*nv)
+        R = size = float(np.sqrt((local * local).sum(2)).max())
+        if self.weights is not None:
+            w = self.weights
+            R = (float(np.sqrt((pw[..., :3] ** 2).sum(2)).max()) + float(w.max()) * size) / float(w.min())
+        self._rounding_scale = ROUNDING_TERMS * (p + 1) * (q + 1) * np.finfo(float).eps * R
+        self.curvature_scale = 1.0 / size ** 2 if size > 0 else 0.0
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -303,6 +322,22 @@ class NurbsSurfaceData:
                 o[s:e] = b
         out[0] += self._center
         return tuple(out)
+
+    def rounding(self, u, v):
+        """Bounds (n, 5) of the rounding of the computed Su, Sv, Suu, Suv, Svv at (u, v)
+        (their vector norms, module doc): ROUNDING_TERMS n eps R times the products of the
+        sums of |basis| (and its derivatives) in u and in v, bounded over each knot span
+        (SpanPolynomials.abs_sum_bounds)."""
+        u, v = as_points(u, v)
+        u = self._wrap(u, self.uperiod, self.urange)
+        v = self._wrap(v, self.vperiod, self.vrange)
+        bu, bv = self.bases
+        au = bu.abs_sum_bounds(bu.spans(u))  # (3, n): bounds of sum |N|, |N'|, |N''|
+        av = bv.abs_sum_bounds(bv.spans(v))
+        r = np.empty((u.size, 5))
+        for col, (k, l) in enumerate(((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))):
+            np.multiply(au[k], self._rounding_scale * av[l], out=r[:, col])
+        return r
 
     def evaluate_grid(self, u, v, order=2):
         """S and partial derivatives on tensor grids: u (n, a) and v (n, b) give the points

@@ -51,6 +51,21 @@ class SpanPolynomials:
             for j in range(p + 1 - d):
                 table[:, d, :, j] = (a[j + d] * (fact[j + d] / fact[j])).T
         self.table = np.ascontiguousarray(table)
+        self._abs_bounds = None
+
+    def abs_sum_bounds(self, span):
+        """Upper bounds (3, n) of sum_r |d^k/dx^k N_r| (k = 0, 1, 2) over the whole knot span
+        of each span index: the sums of |coefficient| (h / 2)^j of the expansions about the
+        midpoints (|t| <= h / 2 on a span of width h), made once."""
+        if self._abs_bounds is None:
+            p = self.p
+            h = np.diff(self.knots)[p:len(self.knots) - p - 1]
+            half = np.power.outer(0.5 * h, np.arange(p + 1))  # (spans, p + 1): (h / 2)^j
+            mid = self.table[0::3, :min(2, p) + 1]  # (spans, d, r, j) about the midpoints
+            bounds = np.zeros((h.size, 3))
+            bounds[:, :mid.shape[1]] = np.einsum("sdrj,sj->sd", np.abs(mid), half)
+            self._abs_bounds = bounds
+        return self._abs_bounds[span - self.p].T
 
     def spans(self, x):
         span = np.searchsorted(self.knots, x, side="right") - 1

@@ -174,6 +174,15 @@ class SurfaceEvaluator:
         """(S, Su, Sv, Suu, Suv, Svv), each (n, 3) float."""
         return self._backend.evaluate(u, v, 2)
 
+    def rounding(self, uv_of):
+        """For differential.curvature_fields: (r_of, c) with r_of(i) the bounds (len(i), 5)
+        of the rounding of the derivatives at the points uv_of(i) = (u_i, v_i) of indices i
+        (NurbsSurfaceData.rounding) and c the surface's curvature scale; None for other
+        surfaces, whose derivatives come from closed forms or OpenCascade."""
+        if self.nurbs is None:
+            return None
+        return (lambda i: self.nurbs.rounding(*uv_of(i))), self.nurbs.curvature_scale
+
     def grid_derivatives(self, u, v, order=2):
         """derivatives (order 2) or first_derivatives (order 1) on the tensor grids u (n, a) x
         v (n, b): the points (u[c, i], v[c, j]) flat in [c, i, j] order (n a b, 3) each.
@@ -184,13 +193,16 @@ class SurfaceEvaluator:
         return self._backend.evaluate(*grid_points(u, v), order)
 
     def differentials(self, u, v, eps=differential.DEFAULT_DEGENERACY_EPS, scale=None, directions=False):
-        """Fundamental forms, oriented normal, H, K, k1 >= k2 at (u, v) (eq:brephk).
+        """Fundamental forms, oriented normal, H, K, k1 >= k2 at (u, v) (eq:brephk), K zero
+        within its rounding (differential.curvature_fields).
 
         Returns differential.SurfaceDifferentials (arrays of length n); see
         differential.surface_differentials for eps, scale and directions.
         """
-        return differential.surface_differentials(self.derivatives(u, v), self.orientation_sign,
-                                                  eps=eps, scale=scale, directions=directions)
+        u, v = as_points(u, v)
+        return differential.surface_differentials(self.derivatives(u, v), self.orientation_sign, eps=eps,
+                                                  scale=scale, directions=directions,
+                                                  rounding=self.rounding(lambda i: (u[i], v[i])))
 
     def continuity_breaks(self, min_continuity=None, urange=None, vrange=None):
         """Parameter lines inside the range where the integrand may lose smoothness.
