@@ -25,9 +25,9 @@ Gaussian curvature 1 / R^2 of a sphere of its poles' size), K is zero where |K| 
 its own rounding bound b (k_rounding_bound), b <= c, and the point is nearly developable
 (|K| <= NEAR_DEVELOPABLE (k1^2 + k2^2), k1^2 + k2^2 = 4 H^2 - 2 K): a developable face (a
 plate, a cylinder or cone as a B-spline) then has K = 0 instead of noise of either sign,
-which no refinement reduces. Where b exceeds the surface's own curvature scale (towards a collapsed
-side, where J -> 0 and the normal's rounding is large), K keeps its computed value: it is
-not known to be zero there, only not known.
+which no refinement reduces. Where b exceeds the surface's own curvature scale (towards a
+collapsed side, where J -> 0 and the normal's rounding is large), K keeps its computed
+value: it is not known to be zero there, only not known.
 """
 from typing import NamedTuple, Optional
 
@@ -176,7 +176,7 @@ def curvature_fields(derivatives, orientation_sign=1, eps=DEFAULT_DEGENERACY_EPS
             i = np.nonzero((aK <= scale_K) & (aK <= NEAR_DEVELOPABLE * np.abs(4.0 * H * H - 2.0 * K)))[0]
             if i.size:
                 b = k_rounding_bound(E[i], G[i], J[i], e[i], f[i], g[i], suu[:, i], suv[:, i], svv[:, i], r_of(i))
-                K[i[(np.abs(K[i]) <= b) & (b <= scale_K)]] = 0.0
+                K[i[(aK[i] <= b) & (b <= scale_K)]] = 0.0
     return CurvatureFields(E, F, G, D, J, normal, e, f, g, H, K, regular)
 
 

@@ -44,6 +44,9 @@ CHUNK = 8192
 GRID_CHUNK = 1024
 #: Multiple of the contraction's n eps in the derivatives' rounding bounds (module doc).
 ROUNDING_TERMS = 2.0
+#: Orders (k, l) of d^k/du^k d^l/dv^l S in the order evaluate returns them: S, Su, Sv, Suu,
+#: Suv, Svv.
+PAIRS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
 
 
 def as_points(u, v):
@@ -294,6 +297,11 @@ class NurbsSurfaceData:
             x[out] = first + np.mod(x[out] - first, period)
         return x
 
+    def _parameters(self, u, v):
+        """u, v as flat arrays of equal length (as_points), periodic ones in the base period."""
+        u, v = as_points(u, v)
+        return self._wrap(u, self.uperiod, self.urange), self._wrap(v, self.vperiod, self.vrange)
+
     def points(self, u, v):
         """Surface points S(u, v), (n, 3) float."""
         return self.evaluate(u, v, order=0)[0]
@@ -309,9 +317,7 @@ class NurbsSurfaceData:
         """
         if order not in (0, 1, 2):
             raise InputError("derivative order must be 0, 1 or 2, got %r" % (order,))
-        u, v = as_points(u, v)
-        u = self._wrap(u, self.uperiod, self.urange)
-        v = self._wrap(v, self.vperiod, self.vrange)
+        u, v = self._parameters(u, v)
         n = u.shape[0]
         nout = (1, 3, 6)[order]
         out = [np.empty((n, 3)) for _ in range(nout)]
@@ -328,14 +334,12 @@ class NurbsSurfaceData:
         (their vector norms, module doc): ROUNDING_TERMS n eps R times the products of the
         sums of |basis| (and its derivatives) in u and in v, bounded over each knot span
         (SpanPolynomials.abs_sum_bounds)."""
-        u, v = as_points(u, v)
-        u = self._wrap(u, self.uperiod, self.urange)
-        v = self._wrap(v, self.vperiod, self.vrange)
+        u, v = self._parameters(u, v)
         bu, bv = self.bases
         au = bu.abs_sum_bounds(bu.spans(u))  # (3, n): bounds of sum |N|, |N'|, |N''|
         av = bv.abs_sum_bounds(bv.spans(v))
         r = np.empty((u.size, 5))
-        for col, (k, l) in enumerate(((1, 0), (0, 1), (2, 0), (1, 1), (0, 2))):
+        for col, (k, l) in enumerate(PAIRS[1:]):
             np.multiply(au[k], self._rounding_scale * av[l], out=r[:, col])
         return r
 
@@ -400,8 +404,7 @@ class NurbsSurfaceData:
         T = T.reshape(m, L, b, p + 1, dim).transpose(0, 3, 1, 2, 4).reshape(m, p + 1, L * b * dim)
         bu = bu.reshape(L, p + 1, m, a).transpose(2, 0, 3, 1).reshape(m, L * a, p + 1)
         S = np.matmul(bu, T).reshape(m, L, a, L, b, dim)
-        pairs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))[:(1, 3, 6)[order]]
-        hom = [S[:, k, :, l].reshape(m * a * b, dim) for k, l in pairs]
+        hom = [S[:, k, :, l].reshape(m * a * b, dim) for k, l in PAIRS[:(1, 3, 6)[order]]]
         if self.weights is None:
             return hom
         return [h.T for h in rational_quotient([h.T for h in hom])]
@@ -427,8 +430,7 @@ class NurbsSurfaceData:
         def comb(k, l):
             return np.einsum("an,dan->dn", bu[k], tv[l])
 
-        pairs = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))[:(1, 3, 6)[order]]
-        hom = [comb(k, l) for k, l in pairs]
+        hom = [comb(k, l) for k, l in PAIRS[:(1, 3, 6)[order]]]
         if self.weights is not None:
             hom = rational_quotient(hom)
         return [h.T for h in hom]

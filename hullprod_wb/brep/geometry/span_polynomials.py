@@ -59,7 +59,7 @@ class SpanPolynomials:
         midpoints (|t| <= h / 2 on a span of width h), made once."""
         if self._abs_bounds is None:
             p = self.p
-            h = np.diff(self.knots)[p:len(self.knots) - p - 1]
+            h = self.origin[2::3] - self.origin[1::3]  # the spans' widths
             half = np.power.outer(0.5 * h, np.arange(p + 1))  # (spans, p + 1): (h / 2)^j
             mid = self.table[0::3, :min(2, p) + 1]  # (spans, d, r, j) about the midpoints
             bounds = np.zeros((h.size, 3))
