@@ -523,6 +523,7 @@ def test_probe_click_selects_nothing_and_warns_nothing(gui):
     """A person's click in probe mode adds a probe row; the hull is not selected (the
     selection colour would hide its map) and no RuntimeWarning is printed."""
     rec = step(gui, "probe_click_selects_nothing")
+    assert rec["target_on_screen"], (rec["tried"], rec["viewport"])
     if rec["rows"] == 0 and rec["freecad"] >= [1, 1]:
         # FreeCAD 1.1's viewer does not pass a Qt mouse event sent from Python on to Coin's
         # event callbacks (tried on the GL viewport and the viewer around it)

@@ -1075,6 +1075,23 @@ def viewer_widgets():
     return found
 
 
+def fit_when_settled(tries=40):
+    """Fit the active view once its GL viewport has kept one size for two looks of the event
+    loop: a new document's view (and a panel opening beside it) is laid out some events
+    later, and a fit before that may leave the hull outside the final viewport. Returns the
+    viewport's (width, height)."""
+    size = None
+    for _ in range(tries):
+        now = (gl_viewport().width(), gl_viewport().height())
+        if now == size:
+            break
+        size = now
+        process(50)
+    view().fitAll()
+    process(50)
+    return [gl_viewport().width(), gl_viewport().height()]
+
+
 def click(widget, x, y):
     """A left click of a person at widget pixel (x, y): move, press, release."""
     pos = QtCore.QPointF(x, y)
@@ -1103,6 +1120,7 @@ def _():
     FreeCADGui.runCommand("HullProd_Probe")
     process(100)
     panel = probe.ACTIVE
+    viewport = fit_when_settled()
     bb = a.Source.Mesh.BoundBox
     centre = FreeCAD.Vector(bb.Center.x, bb.YMax, bb.Center.z)
     x, y = view().getPointOnScreen(centre)
@@ -1128,7 +1146,8 @@ def _():
     selectable_after = [o.Name for o in FreeCADGui.Selection.getSelection(doc.Name)] == [a.Name]
     FreeCADGui.Selection.clearSelection()
     FreeCAD.closeDocument(doc.Name)
-    return {"rows": rows, "selected": selected, "tried": tried, "freecad": [int(v) for v in FreeCAD.Version()[:2]],
+    return {"rows": rows, "selected": selected, "tried": tried, "viewport": viewport,
+            "target_on_screen": 0 <= x < viewport[0] and 0 <= y < viewport[1], "freecad": [int(v) for v in FreeCAD.Version()[:2]],
             "warnings": ["%s:%s: %s" % (w.filename, w.lineno, w.message) for w in caught],
             "selectable_after_close": selectable_after}
 
