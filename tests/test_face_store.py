@@ -243,10 +243,11 @@ def write_shape(path, faces):
     return str(path)
 
 
-def analyze(path, store, *extra):
+def analyze(path, store, *extra, env=None):
     p = subprocess.run([os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet", "--no-fields",
                         "--lref", "4"] + (["--cache", str(store)] if store else ["--no-cache"]) + list(extra),
-                       capture_output=True, text=True, timeout=600, env=dict(os.environ, HULLPROD_FACE_CACHE="off"))
+                       capture_output=True, text=True, timeout=600,
+                       env=dict(os.environ, HULLPROD_FACE_CACHE="off", **(env or {})))
     assert p.returncode == 0, p.stderr
     return json.loads(p.stdout)
 
@@ -280,6 +281,53 @@ def test_a_warm_run_equals_a_cold_one_bit_for_bit(tmp_path):
     assert c["edge_reports_from_store"] == {"hits": 9, "misses": 0}
     assert comparable(warm) == comparable(cold)
     assert comparable(analyze(path, None)) == comparable(cold)  # the store changes nothing
+
+
+def blas_identity_with(threads):
+    """core.blas_identity.blas_identity() of a fresh interpreter with OPENBLAS_NUM_THREADS=threads."""
+    code = "import json; from hullprod_wb.core.blas_identity import blas_identity; print(json.dumps(blas_identity()))"
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT,
+                       env=dict(os.environ, OPENBLAS_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads)))
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout)
+
+
+def test_the_blas_identity_names_the_library_and_its_threads():
+    one, two = blas_identity_with(1), blas_identity_with(2)
+    if one == ["unknown"]:
+        pytest.skip("numpy's BLAS tells neither threadpoolctl nor an OpenBLAS entry point here")
+    # OpenBLAS takes at most as many threads as it sees CPUs
+    assert [pool[-1] for pool in one] == [1] * len(one)
+    assert [pool[-1] for pool in two] == [min(2, os.cpu_count())] * len(two)
+    assert [pool[:-1] for pool in one] == [pool[:-1] for pool in two]  # the same library and kernel
+
+
+def test_the_settings_digest_holds_the_blas_identity(monkeypatch):
+    from hullprod_wb.brep import face_keys
+    from hullprod_wb.brep.validity.budget import quadrature_options
+    from hullprod_wb.core.thresholds import Thresholds
+    args = (7.0, Thresholds(7.0, 1e-3, 1e-3), quadrature_options(), False, True, "7.6.3", "records")
+    monkeypatch.setattr(face_keys, "blas_identity", lambda: [["openblas", "OpenBLAS 0.3.21 Haswell", 1]])
+    one = face_keys.settings_digest(*args)
+    assert face_keys.settings_digest(*args) == one
+    monkeypatch.setattr(face_keys, "blas_identity", lambda: [["openblas", "OpenBLAS 0.3.21 Haswell", 2]])
+    assert face_keys.settings_digest(*args) != one
+    monkeypatch.setattr(face_keys, "blas_identity", lambda: [["openblas", "OpenBLAS 0.3.21 SkylakeX", 1]])
+    assert face_keys.settings_digest(*args) != one
+
+
+@needs_freecad
+def test_faces_made_with_other_blas_threads_are_not_reused(tmp_path):
+    """The last bits of a product depend on OpenBLAS's threads: a run with two does not take
+    the faces a run with one stored, and a run with one again takes them all."""
+    if blas_identity_with(1) == ["unknown"]:
+        pytest.skip("numpy's BLAS does not tell its threads here")
+    path = write_shape(tmp_path / "hull.brep", patches())
+    store = tmp_path / "store"
+    assert analyze(path, store, env={"OPENBLAS_NUM_THREADS": "1"})["provenance"]["cache"]["written"] == 9
+    two = analyze(path, store, env={"OPENBLAS_NUM_THREADS": "2"})["provenance"]["cache"]
+    assert two["hits"] == 0 and two["written"] == 9
+    assert analyze(path, store, env={"OPENBLAS_NUM_THREADS": "1"})["provenance"]["cache"]["hits"] == 9
 
 
 @needs_freecad

@@ -3,7 +3,8 @@
 A face's result depends on its exact geometry and on everything its integration is given:
 the reference length and thresholds, the quadrature settings, the face's point budget (its
 share of the shape's budget), whether it is integrated alone (in patch groups), the
-cross-checks, and the software (this package's source, numpy, OpenCascade). The key is
+cross-checks, and the software (this package's source, numpy, its BLAS and the BLAS's
+threads, OpenCascade). The key is
 two digests: of the geometry (geometry_digest: the face's record, occ_records.FaceData,
 without its number, so a face keeps its key when others are added before it) and of the rest
 (settings_digest, then face_key with the budget). Both are SHA-256 over an exact encoding
@@ -16,6 +17,7 @@ import platform
 import sys
 
 from ..core import version
+from ..core.blas_identity import blas_identity
 from ..core.exact_keys import canonical_bytes, derived_key, digest
 from .reading.record_keys import record_digest
 
@@ -63,9 +65,11 @@ def settings_digest(lref, thresholds, opts, alone, cross_checks, occ_version, re
     """Digest of what every face of a run is integrated with: L_ref, the thresholds (tau_H,
     tau_K), the quadrature options (budget.QuadratureOptions), whether a face is integrated
     alone (in patch groups), the cross-checks, OpenCascade's version, how the faces were
-    read (the run's kind) and the software_fingerprint."""
+    read (the run's kind), the software_fingerprint and numpy's BLAS with its threads
+    (core.blas_identity: they set the last bits of the matrix products)."""
     return digest([software_fingerprint(), float(lref), float(thresholds.tau_H), float(thresholds.tau_K),
-                   sorted(opts.record().items()), bool(alone), bool(cross_checks), occ_version, reading])
+                   sorted(opts.record().items()), bool(alone), bool(cross_checks), occ_version, reading,
+                   blas_identity()])
 
 
 def face_key(geometry, settings, budget):
