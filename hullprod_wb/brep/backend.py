@@ -539,7 +539,7 @@ def assess_brep(source, lref=None, h_f=DEFAULT_HF, k_f=DEFAULT_KF, faces=None, w
         run = BrepRun.read(source, faces, opts, progress or null_progress, started, with_fields=with_fields,
                            display_deflection=display_deflection, cross_checks=cross_checks, jobs=jobs,
                            cache=cache)
-        with run.timed("display_samples_s"):
+        with run.timed("setup_s"):
             run.set_up_faces()
             run.reference_length(lref, h_f, k_f)
         with run.timed("quadrature_s"):
