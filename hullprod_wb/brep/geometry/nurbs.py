@@ -368,23 +368,27 @@ class NurbsSurfaceData:
         sv = bv.spans(v.ravel()).reshape(n, b)
         one = (su == su[:, :1]).all(1) & (sv == sv[:, :1]).all(1)
         nout = (1, 3, 6)[order]
-        out = [np.empty((n, a, b, 3)) for _ in range(nout)]
+        # made as x, y, z rows (3, n a b) and handed on as their transposes: the curvature's
+        # arithmetic takes the rows as they are (differential._components) instead of a copy
+        out = [np.empty((3, n, a, b)) for _ in range(nout)]
         rows = np.nonzero(one)[0]
         for s in range(0, rows.size, GRID_CHUNK):
             r = rows[s:s + GRID_CHUNK]
+            # consecutive grids (the usual case) are written through a slice, not scattered
+            at = slice(r[0], r[-1] + 1) if r[-1] - r[0] == r.size - 1 else r
             for o, g in zip(out, self._grid_block(u[r], v[r], su[r, 0], sv[r, 0], order)):
-                o[r] = g.reshape(r.size, a, b, 3)
+                o[:, at] = g
         rows = np.nonzero(~one)[0]
         if rows.size:
             for o, g in zip(out, self.evaluate(*grid_points(u[rows], v[rows]), order)):
-                o[rows] = g.reshape(rows.size, a, b, 3)
-            out[0][rows] -= self._center  # added to all below
-        out = [o.reshape(n * a * b, 3) for o in out]
-        out[0] += self._center
-        return tuple(out)
+                o[:, rows] = g.T.reshape(3, rows.size, a, b)
+            out[0][:, rows] -= self._center[:, None, None, None]  # added to all below
+        out = [o.reshape(3, n * a * b) for o in out]
+        out[0] += self._center[:, None]
+        return tuple(o.T for o in out)
 
     def _grid_block(self, u, v, su, sv, order):
-        """evaluate_grid for grids u (m, a), v (m, b) in the spans su, sv (m,): arrays (m a b, 3)
+        """evaluate_grid for grids u (m, a), v (m, b) in the spans su, sv (m,): arrays (3, m, a, b)
         relative to the poles' centre."""
         p, q = self.udegree, self.vdegree
         m, a = u.shape
@@ -397,17 +401,17 @@ class NurbsSurfaceData:
         offs = np.arange(p + 1)[:, None] * nv + np.arange(q + 1)[None, :]
         ctrl = self._pw_t.T[offs.T[None] + ((su - p) * nv + (sv - q))[:, None, None]]  # (m, q+1, p+1, dim)
         # one product per grid in each direction: T[c, (l, j), (x, d)] = sum_y d^l N_y(v_cj)
-        # Pw[c, x, y, d], then S[c, (k, i), (l, j, d)] = sum_x d^k N_x(u_ci) T[c, l, j, x, d],
+        # Pw[c, x, y, d], then S[c, (k, i), (d, l, j)] = sum_x d^k N_x(u_ci) T[c, l, j, x, d],
         # every pair of derivative orders at once
         bv = bv.reshape(L, q + 1, m, b).transpose(2, 0, 3, 1).reshape(m, L * b, q + 1)
         T = np.matmul(bv, ctrl.reshape(m, q + 1, (p + 1) * dim))
-        T = T.reshape(m, L, b, p + 1, dim).transpose(0, 3, 1, 2, 4).reshape(m, p + 1, L * b * dim)
+        T = T.reshape(m, L, b, p + 1, dim).transpose(0, 3, 4, 1, 2).reshape(m, p + 1, dim * L * b)
         bu = bu.reshape(L, p + 1, m, a).transpose(2, 0, 3, 1).reshape(m, L * a, p + 1)
-        S = np.matmul(bu, T).reshape(m, L, a, L, b, dim)
-        hom = [S[:, k, :, l].reshape(m * a * b, dim) for k, l in PAIRS[:(1, 3, 6)[order]]]
-        if self.weights is None:
-            return hom
-        return [h.T for h in rational_quotient([h.T for h in hom])]
+        # S[c, (k, i), (d, l, j)]: the v points innermost, so that each pair's (dim, m, a, b)
+        # rows are gathered along contiguous runs
+        S = np.matmul(bu, T).reshape(m, L, a, dim, L, b)
+        hom = [np.moveaxis(S[:, k, :, :, l], 2, 0) for k, l in PAIRS[:(1, 3, 6)[order]]]  # (dim, m, a, b)
+        return hom if self.weights is None else rational_quotient(hom)
 
     def _evaluate_block(self, u, v, order):
         """Derivatives for one block of points; arrays are laid out points-last, (dim, n).
@@ -439,8 +443,8 @@ class NurbsSurfaceData:
 def rational_quotient(hom):
     """Cartesian derivatives of S = A / w from homogeneous ones (quotient rule).
 
-    hom: list of (4, n) arrays [Aw, Aw_u, Aw_v, Aw_uu, Aw_uv, Aw_vv] (first 1, 3 or 6),
-    row 3 holding w and its derivatives. Returns as many (3, n) arrays:
+    hom: list of (4, ...) arrays [Aw, Aw_u, Aw_v, Aw_uu, Aw_uv, Aw_vv] (first 1, 3 or 6),
+    row 3 holding w and its derivatives. Returns as many (3, ...) arrays:
     S = A/w, S_u = (A_u - w_u S)/w, S_uu = (A_uu - 2 w_u S_u - w_uu S)/w,
     S_uv = (A_uv - w_u S_v - w_v S_u - w_uv S)/w (and symmetrically in v).
     """
