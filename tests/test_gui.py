@@ -535,6 +535,17 @@ def test_probe_click_selects_nothing_and_warns_nothing(gui):
     assert rec["selectable_after_close"]
 
 
+def test_fit_all_frames_a_hull_far_from_the_origin(gui):
+    """The colour bar, drawn at the origin through its own camera, is out of the view's
+    bounding box: a hull in ship coordinates fills the view after "fit all"."""
+    rec = step(gui, "fit_all_frames_a_hull_far_from_the_origin")
+    (lo, hi), (hlo, hhi) = rec["bbox"], rec["hull"]
+    size = max(b - a for a, b in zip(hlo, hhi))
+    assert all(abs(a - b) <= 1e-4 * size for a, b in zip(lo + hi, hlo + hhi)), rec
+    assert max(rec["extent"]) >= 0.25, rec  # fit all leaves margins; with the origin framed too, 0.005
+    assert_not_blank(rec["png"])
+
+
 def test_legend_follows_the_remaining_analysis(gui):
     rec = step(gui, "legend_follows_remaining_analysis")
     assert rec["before"] == ["Hull1_analysis_3"] and rec["left"] == ["Hull1_analysis"]

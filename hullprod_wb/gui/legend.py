@@ -7,7 +7,8 @@ import numpy as np
 from . import colormaps
 
 #: The overlay lives in a tiny normalised box (side 2 * HUD_SCALE model units around the
-#: origin) seen through its own orthographic camera, so it never enlarges "fit all".
+#: origin) seen through its own orthographic camera, and out of the view's bounding box
+#: (unbounded), so that "fit all" frames the hull alone.
 HUD_SCALE = 1.0e-6
 #: Overlay layout in normalised device coordinates ([-1, 1] across the view): at the left
 #: edge, clear of the navigation cube (top right) and of the axis cross (bottom right).
@@ -46,6 +47,22 @@ def _quads(coin, corners, colors):
     for node in (mb, mat, co, fs):
         sep.addChild(node)
     return sep
+
+
+def unbounded(node):
+    """node in a group that the view's bounding box leaves out (FreeCAD's
+    SoSkipBoundingGroup, mode EXCLUDE_BBOX): the overlay's box sits at the origin, and a
+    hull in ship coordinates may lie far from it, where "fit all" would frame both and show
+    the hull small in a corner. A plain group where FreeCAD has no such node."""
+    from pivy import coin
+    kind = coin.SoType.fromName(coin.SbName("SoSkipBoundingGroup"))
+    if kind.isBad():
+        group = coin.SoGroup()
+    else:
+        group = kind.createInstance()
+        group.getField(coin.SbName("mode")).set("EXCLUDE_BBOX")
+    group.addChild(node)
+    return group
 
 
 def build_overlay(legend, font_size=13.0):

@@ -126,7 +126,7 @@ class ViewProviderHullProdAnalysis:
         top = coin.SoSeparator()
         top.addChild(self.root)
         top.addChild(self.marker_sep)
-        top.addChild(self.legend_switch)
+        top.addChild(legend_mod.unbounded(self.legend_switch))
         vobj.addDisplayMode(top, DISPLAY_MODE)
         self.rebuild()
 

@@ -1045,12 +1045,13 @@ def _():
 
 
 
-def analysed_mesh(docname, label, lref=1.0):
-    """A new document holding a half-Wigley mesh and its analysis (a fast run)."""
+def analysed_mesh(docname, label, lref=1.0, offset=(0.0, 0.0, 0.0)):
+    """A new document holding a half-Wigley mesh (moved by offset) and its analysis (a fast run)."""
     from hullprod_wb.app import make_analysis
     from hullprod_wb.examples.analytic_meshes import half_wigley_mesh
     doc = FreeCAD.newDocument(docname)
     V, F = half_wigley_mesh(32, 8)
+    V = V + np.asarray(offset, dtype=float)
     m = doc.addObject("Mesh::Feature", label)
     m.Mesh = Mesh.Mesh(V[F].tolist())
     doc.recompute()
@@ -1150,6 +1151,42 @@ def _():
             "target_on_screen": 0 <= x < viewport[0] and 0 <= y < viewport[1], "freecad": [int(v) for v in FreeCAD.Version()[:2]],
             "warnings": ["%s:%s: %s" % (w.filename, w.lineno, w.message) for w in caught],
             "selectable_after_close": selectable_after}
+
+
+@step("fit_all_frames_a_hull_far_from_the_origin")
+def _():
+    """A hull in ship coordinates, far from the origin, its source hidden: the analysis's
+    bounding box is the hull's, and after "fit all" (V, F as a person types it) the hull
+    fills the view instead of sitting small beside the origin."""
+    from pivy import coin
+    doc, a = analysed_mesh("FarHull", "FarHull", offset=(200.0, 40.0, 10.0))
+    FreeCADGui.ActiveDocument = FreeCADGui.getDocument(doc.Name)
+    a.Source.ViewObject.Visibility = False
+    a.ViewObject.Visibility = True
+    a.ViewObject.ShowLegend = True
+    process(100)
+    v = view()
+    act = coin.SoGetBoundingBoxAction(v.getViewer().getSoRenderManager().getViewportRegion())
+    act.apply(a.ViewObject.RootNode)
+    box = act.getBoundingBox()  # the action's own box: read while the action lives
+    lo, hi = [float(x) for x in box.getMin().getValue()], [float(x) for x in box.getMax().getValue()]
+    bb = a.Source.Mesh.BoundBox
+    v.viewIsometric()
+    gl = gl_viewport()
+    gl.setFocus()
+    for key in (QtCore.Qt.Key_V, QtCore.Qt.Key_F):  # Std_ViewFitAll's shortcut
+        QtWidgets.QApplication.sendEvent(gl, QtGui.QKeyEvent(QtCore.QEvent.KeyPress, key, QtCore.Qt.NoModifier, chr(key).lower()))
+        QtWidgets.QApplication.sendEvent(gl, QtGui.QKeyEvent(QtCore.QEvent.KeyRelease, key, QtCore.Qt.NoModifier, chr(key).lower()))
+        process(100)
+    FreeCADGui.runCommand("Std_ViewFitAll")  # the same, where the shortcut is not bound
+    process(100)
+    corners = [FreeCAD.Vector(x, y, z) for x in (bb.XMin, bb.XMax) for y in (bb.YMin, bb.YMax) for z in (bb.ZMin, bb.ZMax)]
+    screen = np.array([v.getPointOnScreen(c) for c in corners], dtype=float)
+    w, h = v.getSize()
+    out = {"bbox": [lo, hi], "hull": [[bb.XMin, bb.YMin, bb.ZMin], [bb.XMax, bb.YMax, bb.ZMax]],
+           "extent": [float(np.ptp(screen[:, 0])) / w, float(np.ptp(screen[:, 1])) / h], "png": shot("far_hull_fit")}
+    FreeCAD.closeDocument(doc.Name)
+    return out
 
 
 @step("legend_follows_remaining_analysis")
