@@ -6,9 +6,11 @@ and its thread count. A stored result is the one a fresh integration gives only 
 match (brep.face_keys.settings_digest takes blas_identity()).
 
 threadpoolctl tells it where it is installed; otherwise the BLAS libraries mapped into this
-process (Linux: /proc/self/maps) are asked directly through their OpenBLAS entry points.
+process (Linux: /proc/self/maps) are asked through their OpenBLAS entry points, and a library
+without them (a reference BLAS, on the calling thread) is named by its file.
 """
 import ctypes
+import os
 
 #: OpenBLAS's entry points under the symbol names its builds use (plain, 64-bit interface,
 #: the SciPy-built wheels'): (config, threads).
@@ -54,7 +56,7 @@ def _openblas():
 
 
 def _from_threadpoolctl():
-    """[[internal_api, version, architecture, threads], ...] of numpy's BLAS pools by
+    """[[internal_api, version and architecture, threads], ...] of numpy's BLAS pools by
     threadpoolctl, or None when it is not installed."""
     try:
         from threadpoolctl import threadpool_info
@@ -62,15 +64,17 @@ def _from_threadpoolctl():
         return None
     import numpy  # noqa: F401
     pools = [p for p in threadpool_info() if p.get("user_api") == "blas"]
-    return sorted([str(p.get("internal_api")), str(p.get("version")), str(p.get("architecture")),
+    return sorted([str(p.get("internal_api")), "%s %s" % (p.get("version"), p.get("architecture")),
                    int(p.get("num_threads", 0))] for p in pools)
 
 
 def blas_identity():
-    """What sets the last bits of numpy's products in this process: a list of the BLAS
-    libraries (their build and the kernel chosen for this CPU) with their current thread
-    counts; ['unknown'] where neither threadpoolctl nor an OpenBLAS entry point tells it.
-    The thread count is read at each call (a pool may be resized while a process runs)."""
+    """What sets the last bits of numpy's products in this process, a list of
+    [library, build, threads]: by threadpoolctl; else the OpenBLAS mapped here (its build
+    string names the kernel chosen for this CPU) with its current threads; else each BLAS
+    library mapped here by its file, threads None (a reference BLAS runs on the calling
+    thread); [['unknown', '', None]] where none is seen. The thread count is read at each
+    call (a pool may be resized while a process runs)."""
     pools = _from_threadpoolctl()
     if pools:
         return pools
@@ -78,4 +82,5 @@ def blas_identity():
     if found:
         config, threads = found
         return [["openblas", config.decode("ascii", "replace"), int(threads())]]
-    return ["unknown"]
+    files = sorted({os.path.realpath(p) for p in _mapped_blas_libraries()})
+    return [["library", f, None] for f in files] or [["unknown", "", None]]
