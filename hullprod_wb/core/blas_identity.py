@@ -5,82 +5,80 @@ kernel for the CPU it runs on, so the last bits of a product depend on the libra
 and its thread count. A stored result is the one a fresh integration gives only when these
 match (brep.face_keys.settings_digest takes blas_identity()).
 
-threadpoolctl tells it where it is installed; otherwise the BLAS libraries mapped into this
-process (Linux: /proc/self/maps) are asked through their OpenBLAS entry points, and a library
-without them (a reference BLAS, on the calling thread) is named by its file.
+The library is the one that defines the cblas_dgemm numpy's extension links (dladdr), not
+whatever BLAS libraries happen to be loaded (scipy may bring others, depending on what was
+imported first); an OpenBLAS tells its build and threads through its own entry points.
 """
 import ctypes
 import os
 
-#: OpenBLAS's entry points under the symbol names its builds use (plain, 64-bit interface,
-#: the SciPy-built wheels'): (config, threads).
+#: numpy's double product under the names its builds link (plain, 64-bit interface, the
+#: SciPy-built wheels').
+DGEMM_SYMBOLS = ("cblas_dgemm", "cblas_dgemm64_", "scipy_cblas_dgemm64_", "scipy_cblas_dgemm")
+#: OpenBLAS's entry points under the same builds' names: (build string, threads).
 OPENBLAS_SYMBOLS = (("openblas_get_config", "openblas_get_num_threads"),
                     ("openblas_get_config64_", "openblas_get_num_threads64_"),
                     ("scipy_openblas_get_config64_", "scipy_openblas_get_num_threads64_"))
 
-_FOUND = None  # (config bytes, threads function) once looked up, () when none was found
+_FOUND = None  # (library file, OpenBLAS build or None, its threads function or None); () if none
 
 
-def _mapped_blas_libraries():
-    """Paths of the shared libraries mapped into this process whose name mentions BLAS
-    (empty where /proc/self/maps cannot be read)."""
+class _DlInfo(ctypes.Structure):
+    _fields_ = [("dli_fname", ctypes.c_char_p), ("dli_fbase", ctypes.c_void_p),
+                ("dli_sname", ctypes.c_char_p), ("dli_saddr", ctypes.c_void_p)]
+
+
+def numpy_blas_file():
+    """The file of the library whose cblas_dgemm numpy's extension calls, resolved; None
+    where that cannot be told (no dladdr, a numpy without a BLAS of its own)."""
     try:
-        with open("/proc/self/maps") as fh:
-            paths = {line.split()[-1] for line in fh if "blas" in line.lower()}
-    except OSError:
-        return []
-    return sorted(p for p in paths if p.startswith("/"))
+        try:
+            from numpy._core import _multiarray_umath as umath
+        except ImportError:
+            from numpy.core import _multiarray_umath as umath
+        extension, libc = ctypes.CDLL(umath.__file__), ctypes.CDLL(None)
+        for name in DGEMM_SYMBOLS:
+            dgemm = getattr(extension, name, None)
+            if dgemm is None:
+                continue
+            info = _DlInfo()
+            if libc.dladdr(ctypes.cast(dgemm, ctypes.c_void_p), ctypes.byref(info)) and info.dli_fname:
+                return os.path.realpath(info.dli_fname.decode())
+    except (OSError, AttributeError, ImportError):
+        return None
+    return None
 
 
-def _openblas():
-    """(config, threads function) of the OpenBLAS mapped into this process, or ()."""
+def _found():
     global _FOUND
     if _FOUND is None:
-        import numpy  # noqa: F401  (loads numpy's BLAS, if it is not loaded yet)
+        path = numpy_blas_file()
         _FOUND = ()
-        for path in _mapped_blas_libraries():
+        if path is not None:
+            _FOUND = (path, None, None)
             try:
                 lib = ctypes.CDLL(path)
             except OSError:
-                continue
+                return _FOUND
             for config_name, threads_name in OPENBLAS_SYMBOLS:
                 config, threads = getattr(lib, config_name, None), getattr(lib, threads_name, None)
                 if config is not None and threads is not None:
-                    config.restype = ctypes.c_char_p
-                    threads.restype = ctypes.c_int
-                    _FOUND = (config(), threads)
+                    config.restype, threads.restype = ctypes.c_char_p, ctypes.c_int
+                    _FOUND = (path, config().decode("ascii", "replace"), threads)
                     break
-            if _FOUND:
-                break
     return _FOUND
 
 
-def _from_threadpoolctl():
-    """[[internal_api, version and architecture, threads], ...] of numpy's BLAS pools by
-    threadpoolctl, or None when it is not installed."""
-    try:
-        from threadpoolctl import threadpool_info
-    except ImportError:
-        return None
-    import numpy  # noqa: F401
-    pools = [p for p in threadpool_info() if p.get("user_api") == "blas"]
-    return sorted([str(p.get("internal_api")), "%s %s" % (p.get("version"), p.get("architecture")),
-                   int(p.get("num_threads", 0))] for p in pools)
-
-
 def blas_identity():
-    """What sets the last bits of numpy's products in this process, a list of
-    [library, build, threads]: by threadpoolctl; else the OpenBLAS mapped here (its build
-    string names the kernel chosen for this CPU) with its current threads; else each BLAS
-    library mapped here by its file, threads None (a reference BLAS runs on the calling
-    thread); [['unknown', '', None]] where none is seen. The thread count is read at each
-    call (a pool may be resized while a process runs)."""
-    pools = _from_threadpoolctl()
-    if pools:
-        return pools
-    found = _openblas()
-    if found:
-        config, threads = found
-        return [["openblas", config.decode("ascii", "replace"), int(threads())]]
-    files = sorted({os.path.realpath(p) for p in _mapped_blas_libraries()})
-    return [["library", f, None] for f in files] or [["unknown", "", None]]
+    """[[library, build, threads]] of numpy's BLAS: ['openblas', its build string (which
+    names the kernel chosen for this CPU), its current threads] for an OpenBLAS; ['library',
+    its file, None] for another (a reference BLAS runs on the calling thread); [['unknown',
+    '', None]] where it cannot be told. The threads are read at each call (a pool may be
+    resized while a process runs)."""
+    found = _found()
+    if not found:
+        return [["unknown", "", None]]
+    path, config, threads = found
+    if config is None:
+        return [["library", path, None]]
+    return [["openblas", config, int(threads())]]
