@@ -70,15 +70,15 @@ def _found():
 
 
 def blas_identity():
-    """[[library, build, threads]] of numpy's BLAS: ['openblas', its build string (which
-    names the kernel chosen for this CPU), its current threads] for an OpenBLAS; ['library',
-    its file, None] for another (a reference BLAS runs on the calling thread); [['unknown',
-    '', None]] where it cannot be told. The threads are read at each call (a pool may be
-    resized while a process runs)."""
+    """[library, build, threads] of numpy's BLAS: ['openblas', its build string (which names
+    the kernel chosen for this CPU), its current threads] for an OpenBLAS; ['library', its
+    file, None] for another (a reference BLAS runs on the calling thread); ['unknown', '',
+    None] where it cannot be told. The threads are read at each call (a pool may be resized
+    while a process runs)."""
     found = _found()
     if not found:
-        return [["unknown", "", None]]
+        return ["unknown", "", None]
     path, config, threads = found
     if config is None:
-        return [["library", path, None]]
-    return [["openblas", config, int(threads())]]
+        return ["library", path, None]
+    return ["openblas", config, int(threads())]
