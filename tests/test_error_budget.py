@@ -66,6 +66,29 @@ def test_units_left_pending_by_the_budget_are_counted_once(power, budget, rtol):
     assert abs(r.values["A"] - 1.0) <= r.errors["A"] + 1e-12
 
 
+def _comparable(r):
+    """A result's record without its timing and the budget it was given."""
+    d = r.to_dict()
+    for k in ("seconds", "point_budget"):
+        d.pop(k)
+    return d
+
+
+@pytest.mark.parametrize("power, rtol", [(1.0, 1e-8), (1.5, 1e-4), (1.9, 1e-4)])
+def test_a_run_the_budget_never_bound_is_the_same_under_every_budget_it_needs(power, rtol):
+    f = corner_field(power)
+    r = integrate(SQUARE, f, TAU_H, TAU_K, rtol=rtol, depth_limit=30, point_budget=2_000_000)
+    need = r.budget_needed
+    assert need is not None and r.n_points <= need < 2_000_000
+    for budget in (need, (need + 2_000_000) // 2, 8_000_000):
+        s = integrate(SQUARE, f, TAU_H, TAU_K, rtol=rtol, depth_limit=30, point_budget=budget)
+        assert s.budget_needed == need and _comparable(s) == _comparable(r), budget
+    # one point less and some comparison with the budget comes out otherwise
+    less = integrate(SQUARE, f, TAU_H, TAU_K, rtol=rtol, depth_limit=30, point_budget=need - 1)
+    assert less.budget_needed is None
+    assert integrate(SQUARE, f, TAU_H, TAU_K, rtol=rtol, depth_limit=30).budget_needed is None  # no budget
+
+
 def _face(values, errors, tolerances):
     q = SimpleNamespace(values=values, errors=errors,
                         converged={k: errors[k] <= tolerances[k] for k in values})

@@ -353,13 +353,31 @@ def test_changed_faces_are_integrated_again_and_the_rest_reused(tmp_path):
 def test_a_face_count_change_reuses_the_faces_whose_keys_match(tmp_path):
     store = tmp_path / "store"
     faces = patches()
-    few = ("--point-budget", "500000")  # every face at the floor of its budget, as most faces of a ship
-    analyze(write_shape(tmp_path / "base.brep", faces), store, *few)
-    fewer = write_shape(tmp_path / "fewer.brep", faces[:4] + faces[5:])  # face 5 removed: the rest renumbered
-    inc = analyze(fewer, store, *few)
+    analyze(write_shape(tmp_path / "base.brep", faces), store)
+    # face 5 removed: the rest renumbered, and their shares of the point budget grow
+    fewer = write_shape(tmp_path / "fewer.brep", faces[:4] + faces[5:])
+    inc = analyze(fewer, store)
     assert inc["provenance"]["cache"]["hits"] == 8
     assert [r["face"] for r in inc["provenance"]["faces"]] == list(range(1, 9))
-    assert comparable(inc) == comparable(analyze(fewer, None, *few))
+    assert comparable(inc) == comparable(analyze(fewer, None))
+
+
+@needs_freecad
+def test_faces_whose_budget_changed_are_reused_where_the_budget_never_bound_them(tmp_path):
+    path = write_shape(tmp_path / "hull.brep", patches())
+    store = tmp_path / "store"
+    tight = analyze(path, store, "--point-budget", "2000")  # 2,000 points a face: the budget binds some
+    bound = [f["face"] for f in tight["provenance"]["quadrature"]
+             if any(p["budget_needed"] is None for p in f["parts"])]
+    assert 0 < len(bound) < 9
+    # every face's budget changes; a face the budget bound is integrated again (and then
+    # stored free of it), the others are taken as they were
+    for budget, reused in (("3000000", [f for f in range(1, 10) if f not in bound]),
+                           ("9000000", list(range(1, 10)))):
+        inc = analyze(path, store, "--point-budget", budget)
+        assert inc["provenance"]["cache"]["faces_from_store"] == reused, budget
+        # the parts' point budgets too: those this run gave them
+        assert comparable(inc) == comparable(analyze(path, None, "--point-budget", budget)), budget
 
 
 def test_a_new_face_leaves_most_other_budgets_as_they_were():

@@ -71,3 +71,19 @@ def test_lines_on_interpolants_take_one_pass_when_the_budget_does_not_bind(monke
     assert not r.budget_spent and r.n_points == free.n_points
     assert len(passes) == n_free
     assert r.values["int_abs_K"] == pytest.approx(free.values["int_abs_K"], rel=1e-12)
+
+
+def test_lines_the_budget_left_whole_are_the_same_under_every_budget_they_need():
+    # the last level's lines of the field go in chunks sized by the points left: a run whose
+    # chunks the budget never cut is the same under every budget from its budget_needed on
+    base = dict(rtol=1e-6, depth_limit=30)
+    r = integrate(SQUARE, near_flat_plate, TAU_H, TAU_K, point_budget=8_000_000, **base)
+    need = r.budget_needed
+    assert need is not None and r.n_points <= need
+    for budget in (need, 3 * need):
+        s = integrate(SQUARE, near_flat_plate, TAU_H, TAU_K, point_budget=budget, **base)
+        assert s.to_dict()["values"] == r.to_dict()["values"] and s.n_points == r.n_points
+        assert s.errors == r.errors and s.budget_needed == need
+    cut = integrate(SQUARE, near_flat_plate, TAU_H, TAU_K, point_budget=need - 1, **base)
+    assert cut.budget_needed is None
+

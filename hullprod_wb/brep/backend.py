@@ -37,7 +37,7 @@ from .display import (DISPLAY_DEFLECTION, SAMPLE_DEFLECTION, display_fields, fac
                       sample_meshes, tessellation_samples)
 from .face_assessment import assess_face
 from ..core.exact_keys import HALF
-from .face_keys import display_samples_key, face_key, geometry_digest, settings_digest
+from .face_keys import display_samples_key, face_keys, geometry_digest, settings_digest
 from .geometry.face_field import FaceField
 from ..core.processes import resolve_jobs
 from .face_result import FaceAssessment
@@ -207,9 +207,10 @@ class BrepRun:
         self.results = self.stored_or_assessed(list(range(n)), self.cost, self._timed_shape_records)
 
     def key(self, i):
-        """Face i's key in the store with its current point budget (None: not stored)."""
+        """Face i's keys in the store with its current point budget (face_keys.FaceKeys;
+        None: not stored)."""
         g = self.geometry[i] if self.store is not None else None
-        return None if g is None else face_key(g, self.settings, self.face_budgets[i])
+        return None if g is None else face_keys(g, self.settings, self.face_budgets[i])
 
     def stored_or_assessed(self, todo, cost, while_waiting=None):
         """The results of the faces todo (indices) through the store (stored_faces)."""

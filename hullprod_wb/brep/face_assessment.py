@@ -8,7 +8,7 @@ from .validity.cross_checks import face_cross_checks
 from .validity.pinch_points import pinch_triangles
 from .cubature import QUANTITIES, integrate, patch_groups
 from ..core.processes import map_forked
-from .face_result import CombinedQuadrature, FaceAssessment, final_result
+from .face_result import PIECE_BUDGET_SHARE, CombinedQuadrature, FaceAssessment, final_result, part_budget
 from .face_setup import FaceSetup
 from .geometry.trimmed_domain import TrimmedDomain
 
@@ -31,6 +31,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
     cross-check values). setup: its FaceSetup when already made."""
     s = setup or FaceSetup(face)
     quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, cross_checks, point_budget)
+    needs = [quad.budget_needed()]  # of every integration the result depends on
     for _ in range(STALL_ROUNDS if not opts.paper and opts.audit else 0):
         # a refinement that stalled at a knot-grid node: graded there and audited (VALID* or
         # SINGULAR), instead of ever smaller cells (paper section 4.3)
@@ -39,6 +40,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
         if not pts or not s.add_stalled_points(pts):
             break
         quad = _integrate_face(s, thresholds, opts, progress, groups, group_jobs, False, point_budget)
+        needs.append(quad.budget_needed())
     ff, domain, deg, quads, gu, gv = s.ff, s.domain, s.deg, s.quads, s.gu, s.gv
     audits = []
     if deg and opts.audit:
@@ -51,6 +53,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
         for side in deg.sides:
             audits.append(singular.probe_side(ff, domain, side, s.u_breaks, s.v_breaks))
     f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
+    f.budget_needed = None if point_budget is None or None in needs else max(needs)
     if cross_checks:
         f.cross_check = face_cross_checks(f, s.check.get("rule"), s.check.get("seconds", 0.0),
                                           reference=face.occ_reference if s.recorded else None)
@@ -69,8 +72,7 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     groups = patch_groups(s.patches.size) if groups else [None]
     mkw = dict(kw)
     if not opts.paper:
-        mkw.update(depth_limit=opts.depth_limit,
-                   point_budget=None if point_budget is None else max(1, int(point_budget) // len(groups)))
+        mkw.update(depth_limit=opts.depth_limit, point_budget=part_budget(point_budget, len(groups)))
     prefetch = s.prefetch if s.prefetch is not None and len(s.prefetch) == len(groups) else [None] * len(groups)
 
     def main_part(g):  # progress from the group integrated in this process
@@ -89,8 +91,7 @@ def _integrate_face(s, thresholds, opts, progress, groups, group_jobs, area_chec
     share = {k: abs(v) / (2.0 * max(len(pieces), 1)) for k, v in main_values.items()}
     qkw = dict(kw, max_depth=min(opts.max_depth, QUADRANT_MAX_DEPTH), class_max_depth=QUADRANT_CLASS_DEPTH)
     if not opts.paper:  # refined by the error too, within a share of the face's points
-        qkw.update(depth_limit=opts.depth_limit,
-                   point_budget=None if point_budget is None else max(1, int(point_budget) // 2))
+        qkw.update(depth_limit=opts.depth_limit, point_budget=part_budget(point_budget, PIECE_BUDGET_SHARE))
     for piece in pieces:
         parts.append(integrate(unit, piece, thresholds.tau_H, thresholds.tau_K, reference=share, **qkw))
 

@@ -10,11 +10,19 @@ without its number, so a face keeps its key when others are added before it) and
 (settings_digest, then face_key with the budget). Both are SHA-256 over an exact encoding
 (core.exact_keys: doubles as their 8 bytes, never through text), so equal keys mean equal
 inputs bit for bit, and the stored result is the one a fresh integration would give.
+
+A face has two keys (FaceKeys): the exact one, with its point budget, holds a result the
+budget bound; the free one, without it, a result the budget never bound, which is the same
+to the bit under every budget of at least its budget_needed (cubature.driver), so a face
+whose share of the shape's budget changes is still taken from the store where that holds
+(face_result.FaceAssessment.fits).
 """
 import hashlib
 import os
 import platform
 import sys
+from dataclasses import dataclass
+from typing import Optional
 
 from ..core import version
 from ..core.blas_identity import blas_identity
@@ -63,13 +71,41 @@ def geometry_digest(face):
 
 def settings_digest(lref, thresholds, opts, alone, cross_checks, occ_version, reading):
     """Digest of what every face of a run is integrated with: L_ref, the thresholds (tau_H,
-    tau_K), the quadrature options (budget.QuadratureOptions), whether a face is integrated
+    tau_K), the quadrature options (budget.QuadratureOptions) but the shape's point budget (a
+    face's result depends on its own budget alone: face_keys), whether a face is integrated
     alone (in patch groups), the cross-checks, OpenCascade's version, how the faces were
     read (the run's kind), the software_fingerprint and numpy's BLAS with its threads
     (core.blas_identity: they set the last bits of the matrix products)."""
     return digest([software_fingerprint(), float(lref), float(thresholds.tau_H), float(thresholds.tau_K),
-                   sorted(opts.record().items()), bool(alone), bool(cross_checks), occ_version, reading,
+                   sorted((k, v) for k, v in opts.record().items() if k != "point_budget"), bool(alone), bool(cross_checks), occ_version, reading,
                    blas_identity()])
+
+
+#: What stands for the budget in a face's free key.
+ANY_BUDGET = "any point budget from the result's budget_needed on"
+
+
+@dataclass(frozen=True)
+class FaceKeys:
+    """A face's keys in the store: exact (face_key with its point budget), free (face_key
+    with ANY_BUDGET; None without a budget), and the budget."""
+
+    exact: str
+    free: Optional[str]
+    budget: Optional[int]
+
+    @property
+    def claim(self):
+        """The key a run claims while it makes the face (core.result_claims): the free one
+        where there is one, so that runs giving the face other budgets make it once too."""
+        return self.free or self.exact
+
+
+def face_keys(geometry, settings, budget):
+    """FaceKeys of a face of geometry digest geometry, integrated with settings within budget
+    points (None: no limit)."""
+    return FaceKeys(face_key(geometry, settings, budget),
+                    None if budget is None else face_key(geometry, settings, ANY_BUDGET), budget)
 
 
 def face_key(geometry, settings, budget):

@@ -10,6 +10,17 @@ from .cubature import QUANTITIES
 from .cubature.result import QuadratureValues
 
 
+#: A neighbourhood quadrant or pinch triangle of a face is integrated within 1/PIECE_BUDGET_SHARE
+#: of the face's point budget (a patch group within its share of the groups).
+PIECE_BUDGET_SHARE = 2
+
+
+def part_budget(point_budget, divisor):
+    """A part's point budget: the face's point_budget split divisor ways, at least 1 (None:
+    no limit)."""
+    return None if point_budget is None else max(1, int(point_budget) // int(divisor))
+
+
 def final_result(q):
     """The deepest result of a quadrature (the depth-6 recheck when there was one)."""
     return q.recheck if q.recheck is not None else q
@@ -43,6 +54,28 @@ class CombinedQuadrature(QuadratureValues):
         self.history = [{k: float(sum(h[min(d, len(h) - 1)][k] for h in hist)) for k in QUANTITIES}
                         for d in range(max(len(h) for h in hist))]
 
+    def divisors(self):
+        """How many ways the face's point budget is split for each part (part_budget)."""
+        return [self.n_main] * self.n_main + [PIECE_BUDGET_SHARE] * (len(self.parts) - self.n_main)
+
+    def budget_needed(self):
+        """The smallest point budget of the face under which every part makes the same
+        decisions (each part's budget_needed, cubature.driver), None when the budget bound a
+        part or there was none."""
+        need = 0
+        for p, d in zip(self.parts, self.divisors()):
+            n = getattr(p, "budget_needed", None)
+            if n is None or p.recheck is not None:
+                return None
+            need = max(need, d * n)  # point_budget // d >= n exactly when point_budget >= d n
+        return need
+
+    def with_budget(self, point_budget):
+        """Self with the parts' point budgets those of a face given point_budget."""
+        for p, d in zip(self.parts, self.divisors()):
+            p.point_budget = part_budget(point_budget, d)
+        return self
+
     def to_dict(self):
         return {"values": self.values, "errors": self.errors, "converged": self.converged,
                 "depth_reached": self.depth_reached, "n_points": self.n_points, "rechecked": self.rechecked,
@@ -73,6 +106,9 @@ class FaceAssessment:
         self.kind = ff.kind
         self.cross_check = None
         self.disagreement = {}  # quantity -> [earlier, finer] where a second integration disagreed
+        # the smallest point budget giving this same assessment to the bit, None when the
+        # budget bound it (assess_face)
+        self.budget_needed = None
 
     def renumbered(self, number):
         """Self as face number (a result from the store, made for the same face under another
@@ -80,6 +116,16 @@ class FaceAssessment:
         self.number = number
         if isinstance(self.cross_check, dict) and "face" in self.cross_check:
             self.cross_check["face"] = number
+        return self
+
+    def fits(self, point_budget):
+        """Whether a face given point_budget is assessed as this one was, to the bit: the
+        budget bound no integration of it and point_budget is at least budget_needed."""
+        return self.budget_needed is not None and point_budget is not None and point_budget >= self.budget_needed
+
+    def with_budget(self, point_budget):
+        """Self as assessed with point_budget (fits): the parts' budgets say so. Returns self."""
+        self.quad.with_budget(point_budget)
         return self
 
     def detach(self):

@@ -2,8 +2,10 @@
 else assessed here and stored; a face another run is assessing (its key claimed, see
 core.result_claims) is awaited after this run's own faces instead of assessed twice.
 
-The store holds a result under the key of everything it depends on (brep.face_keys), so a
-face taken from the store, awaited or assessed here is the same to the bit.
+The store holds a result under the key of everything it depends on (brep.face_keys): a
+result the point budget bound under its exact key, one it never bound under its free key,
+taken for every budget it fits (face_result.FaceAssessment.fits). So a face taken from the
+store, awaited or assessed here is the same to the bit.
 """
 import os
 import time
@@ -28,7 +30,7 @@ def stored_or_assessed(run, todo, cost, while_waiting=None):
     with run.timed("store_s"):
         keys = [run.key(i) for i in todo]
         for k, (i, key) in enumerate(zip(todo, keys)):
-            f = store.get(key) if key is not None else None
+            f = look_up(store, key) if key is not None else None
             if f is None:
                 missed.append(k)
             else:
@@ -36,7 +38,7 @@ def stored_or_assessed(run, todo, cost, while_waiting=None):
 
     def work(m):  # in a worker process: the face, unless another run is making it
         key = keys[missed[m]]
-        if key is not None and (not store.claim(key) or os.path.exists(store.path(key))):
+        if key is not None and (not store.claim(key.claim) or _stored(store, key)):
             return AWAITED
         return run.face_work(todo[missed[m]])
 
@@ -50,8 +52,8 @@ def stored_or_assessed(run, todo, cost, while_waiting=None):
         if keys[k] is not None:
             with run.timed("store_s"):
                 if isinstance(f, FaceAssessment):
-                    store.put(keys[k], f)
-                store.release(keys[k])
+                    store.put(keys[k].free if keys[k].free and f.fits(keys[k].budget) else keys[k].exact, f)
+                store.release(keys[k].claim)
         run.finished(todo[k], f)
 
     try:
@@ -62,13 +64,31 @@ def stored_or_assessed(run, todo, cost, while_waiting=None):
         with run.timed("store_s"):
             for k in missed:
                 if keys[k] is not None:
-                    store.release(keys[k])
+                    store.release(keys[k].claim)
     for k, f in zip(missed, got):
         if not isinstance(f, str):
             out[k] = f
     if awaited:
         _await(run, sorted(awaited), todo, keys, cost, out)
     return out
+
+
+def look_up(store, keys):
+    """The stored result of a face of keys (face_keys.FaceKeys): under the exact key, else
+    under the free key where it fits the budget (made its point budgets), else None (one
+    hit or one miss counted)."""
+    f = store.get(keys.exact, count_miss=keys.free is None)
+    if f is None and keys.free is not None:
+        f = store.get(keys.free, accept=lambda g: g.fits(keys.budget))
+        if f is not None:
+            f.with_budget(keys.budget)
+    return f
+
+
+def _stored(store, keys):
+    """Whether look_up would find the face's result (nothing counted)."""
+    return store.holds(keys.exact) or (keys.free is not None
+                                       and store.holds(keys.free, lambda g: g.fits(keys.budget)))
 
 
 def _taken(run, i, f):
@@ -90,11 +110,11 @@ def _await(run, awaited, todo, keys, cost, out):
     while pending:
         left, orphans = [], []
         for k in pending:
-            f = store.get(keys[k]) if os.path.exists(store.path(keys[k])) else None
+            f = look_up(store, keys[k]) if _stored(store, keys[k]) else None
             if f is not None:
                 store.counts.awaited += 1
                 out[k] = _taken(run, todo[k], f)
-            elif store.claimed_elsewhere(keys[k]):
+            elif store.claimed_elsewhere(keys[k].claim):
                 left.append(k)
             else:
                 orphans.append(k)

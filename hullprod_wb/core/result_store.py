@@ -72,20 +72,24 @@ class ResultStore:
     def path(self, key):
         return os.path.join(self.folder, key[:2], key + ".entry")
 
-    def get(self, key):
-        """The result stored under key, or None (absent, damaged or unreadable: a miss)."""
+    def get(self, key, accept=None, count_miss=True):
+        """The result stored under key, or None (absent, damaged or unreadable, or a result
+        accept(result) refuses: a miss, counted when count_miss)."""
         path = self.path(key)
         try:
             with open(path, "rb") as fh:
                 data = fh.read()
         except OSError:
-            self.counts.misses += 1
+            self.counts.misses += count_miss
             return None
         value = self._decode(key, data)
         if value is None:
             self.counts.damaged += 1
-            self.counts.misses += 1
+            self.counts.misses += count_miss
             _remove(path)
+            return None
+        if accept is not None and not accept(value):
+            self.counts.misses += count_miss
             return None
         self.counts.hits += 1
         self.counts.bytes_read += len(data)
@@ -94,6 +98,15 @@ class ResultStore:
         except OSError:
             pass
         return value
+
+    def holds(self, key, accept=None):
+        """Whether a whole entry is under key that accept(result) takes (nothing counted)."""
+        try:
+            with open(self.path(key), "rb") as fh:
+                value = self._decode(key, fh.read())
+        except OSError:
+            return False
+        return value is not None and (accept is None or bool(accept(value)))
 
     def put(self, key, value):
         """Store value under key (atomically); False when writing is off or failed."""

@@ -19,13 +19,16 @@ rtol. The candidates' line integrals (lines) are then computed, and the candidat
 greedily again on every quantity against the whole budget left; the others are split. The
 refinement ends at max_depth (the paper's protocol, with a recheck one level deeper) or,
 driven by the error alone, at depth_limit levels or when the next level would exceed the
-point budget.
+point budget. Every comparison with the point budget is recorded (budget_needed): a run the
+budget never bound makes the same decisions, and gives the same result to the bit, under
+every budget of at least the largest point count it compared within it.
 
 A cell is mixed when its samples do not all have one class, or when the sampled range of K
 (or of H where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself, contains
 -tau_K or tau_K (or -+tau_H), or K changes sign in it; the K integrals and class areas of a
 parent cell with a mixed child are line integrals (lines).
 """
+import math
 import time
 from dataclasses import replace
 
@@ -90,6 +93,9 @@ class Integration:
         self.pending = None  # units left unaccepted at the last level
         self.budget_spent = False  # refinement stopped by the point budget (refine_to)
         self.point_budget = None if point_budget is None else int(point_budget)
+        # budget_needed: the smallest point budget under which every comparison with the
+        # budget so far comes out as it did; budget_free: none of them was bound by it
+        self.budget_needed, self.budget_free = 0, True
         self.field_lines = [0, 0]  # field points and units of the lines of the field so far
         self.active = self.evaluate(self.active, self._prefetched(0))
         if prefetch is not None:
@@ -220,8 +226,8 @@ class Integration:
             if na == 0:
                 self.pending = None
                 break
-            if point_budget is not None and self.f.n_points + 4 * na * per_cell > point_budget \
-                    and self.pending is not None:
+            if point_budget is not None and self.pending is not None \
+                    and not self._within_budget(self.f.n_points + 4 * na * per_cell):
                 del self.accepted[before[0]:]
                 self.err_acc, self.active = before[1], before[2]
                 self.budget_spent = True
@@ -231,7 +237,7 @@ class Integration:
             # the last level: the depth limit, or the point budget would not hold the next
             # level's children (at most four a cell refined here)
             last = self.depth >= depth_limit or (
-                point_budget is not None and self.f.n_points + 16 * na * per_cell > point_budget)
+                point_budget is not None and not self._within_budget(self.f.n_points + 16 * na * per_cell))
             if last and self.depth < depth_limit:
                 self.budget_spent = True
             unit, err = self._parent_units(a, ch)
@@ -248,6 +254,16 @@ class Integration:
                                   else self.f.n_points / float(point_budget)),
                               "quadrature depth %d: %d of %d cells refined"
                               % (self.depth, int((~accept).sum()), na))
+
+    def _within_budget(self, points):
+        """Whether points (the field points a step would reach) fit the point budget; the
+        answer is recorded: the smallest budget that gives it (budget_needed), or that the
+        budget bound the run (budget_free False)."""
+        if points > self.point_budget:
+            self.budget_free = False
+            return False
+        self.budget_needed = max(self.budget_needed, int(math.ceil(points)))
+        return True
 
     def _parent_units(self, a, ch):
         """The active cells a as units (CellSet) of their children ch's Gauss sums, and their
@@ -355,14 +371,23 @@ class Integration:
         for _ in range(LINE_CHUNKS * LINE_CHUNKS):
             if n_field == field.size:
                 break
-            left = self.point_budget - self.f.n_points
+            n0 = self.f.n_points
+            left = self.point_budget - n0
             cost = spent / n_field if n_field else self.field_line_cost()
             if cost is None:
-                size = max(1, field.size // LINE_CHUNKS ** 2)
+                whole = min(max(1, field.size // LINE_CHUNKS ** 2), field.size - n_field)
+                size, need = whole, n0 + 1
             else:  # a few units' cost says little of the rest's: at most double
                 grow = n_field if n_field else field.size // 2
-                size = min(int(left / (LINE_MARGIN * max(cost, 1.0))), max(1, grow))
-            size = min(size, field.size - n_field)
+                whole = min(max(1, grow), field.size - n_field)
+                per_unit = LINE_MARGIN * max(cost, 1.0)
+                size = min(int(left / per_unit), whole)
+                # from this many points on, the points left hold the whole chunk
+                need = n0 + math.ceil(whole * per_unit * (1.0 + 1e-12)) + 1
+            if left > 0 and size == whole:
+                self._within_budget(need)
+            else:  # the budget cut the chunk or ended the lines
+                self.budget_free = False
             if left <= 0 or size < 1:
                 break
             spent += chunk(field[n_field:n_field + size])
@@ -501,7 +526,8 @@ class Integration:
             peak_KJ=units.peak[top], seconds=time.perf_counter() - seconds_start,
             history=list(self.history), zero_resolved=self.ls.resolve_zero,
             zero_charge=self.zero_charge, point_budget=self.point_budget, budget_spent=self.budget_spent,
-            deepest_cells=deepest)
+            budget_needed=self.budget_needed if self.point_budget is not None and self.budget_free
+            and not self.budget_spent else None, deepest_cells=deepest)
 
 
 def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_breaks=(),

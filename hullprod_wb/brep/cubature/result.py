@@ -55,7 +55,10 @@ class QuadratureResult(QuadratureValues):
     rule (section 5.2).
     zero_resolved: crossings of K = 0 cut the lines of mixed cells (else the bounds charged
     instead, zero_charge, within ZERO_CHARGE_SHARE of the K integrals' tolerances, are part
-    of their error estimates; see lines.line_values).
+    of their error estimates; see lines.line_values). point_budget: the field points the
+    refinement was given (None: no limit); budget_spent: the budget stopped it;
+    budget_needed: for a run the budget never bound, the smallest budget under which it makes
+    the same decisions and gives this result to the bit (None otherwise).
     """
 
     values: dict
@@ -82,6 +85,7 @@ class QuadratureResult(QuadratureValues):
     zero_charge: float = 0.0
     point_budget: Optional[int] = None
     budget_spent: bool = False
+    budget_needed: Optional[int] = None
     deepest_cells: Optional[np.ndarray] = None
 
     def to_dict(self):
@@ -91,7 +95,7 @@ class QuadratureResult(QuadratureValues):
                                              "n_field_calls", "n_cells", "n_initial_cells",
                                              "n_mixed_cells", "n_nonregular", "seconds",
                                              "zero_resolved", "zero_charge", "point_budget",
-                                             "budget_spent")}
+                                             "budget_spent", "budget_needed")}
         out["nonregular_uv"] = self.nonregular_uv.tolist()
         out["unconverged_cells"] = self.unconverged_cells.tolist()
         out["peak_KJ"] = self.peak_KJ.tolist()
