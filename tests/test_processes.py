@@ -140,6 +140,18 @@ def _where(i):
     return (i * i, os.getpid() == _PARENT)
 
 
+@needs_fork
+@forks
+def test_a_single_item_beside_the_waiting_work_goes_to_a_worker():
+    waited = []
+    # alone, a single item runs here; beside while_waiting, in a worker while that runs here
+    assert processes.map_faces(_where, 1, 2, while_waiting=lambda: waited.append(os.getpid())) == [(0, True)]
+    assert processes.map_faces(_where, 1, 2, while_waiting=lambda: waited.append(os.getpid()),
+                               beside=True) == [(0, False)]
+    assert waited == [_PARENT, _PARENT]
+    assert processes.map_faces(_where, 1, 1, beside=True) == [(0, True)]  # no workers: here
+
+
 def _dies_in_a_child(i):
     if os.getpid() != _PARENT:
         os._exit(3)  # a crash in the geometry kernel, seen from the parent: no result sent

@@ -167,8 +167,9 @@ def test_a_reader_from_a_fresh_interpreter_sends_what_a_forked_one_sends(tmp_pat
     finally:
         stop.set()
         other.join()
-    a = [forked.faces_frame(), forked.lref_frame(), forked.late_frame()]
-    b = [fresh.faces_frame(), fresh.lref_frame(), fresh.late_frame()]
+    a = [forked.faces_frame(), forked.lref_frame(), forked.display_frame(), forked.late_frame()]
+    b = [fresh.faces_frame(), fresh.lref_frame(), fresh.display_frame(), fresh.late_frame()]
+    assert a[2].display is not None and len(a[2].display) == len(a[0].faces)
     strip = lambda f: {k: v for k, v in vars(f).items() if k not in ("read_seconds", "seconds")}
     assert [strip(f) for f in a] == [strip(f) for f in b]
     forked.close()

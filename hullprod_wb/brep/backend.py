@@ -77,7 +77,8 @@ class BrepRun:
     (each face's share of the progress), group_jobs, face_budgets (points), results (each
     face's FaceAssessment or LeftOutFace), provenance, and every stage's seconds (timings).
     What the kind of shape decides: READING, face_cost, lref_ready, face_field,
-    lref_samples, samples_before_quadrature, shape_records, late_records and user_cache.
+    lref_samples, samples_before_quadrature, shape_records, samples_while_integrating,
+    late_records and user_cache.
     """
 
     shape: object
@@ -212,9 +213,9 @@ class BrepRun:
         g = self.geometry[i] if self.store is not None else None
         return None if g is None else face_keys(g, self.settings, self.face_budgets[i])
 
-    def stored_or_assessed(self, todo, cost, while_waiting=None):
+    def stored_or_assessed(self, todo, cost, while_waiting=None, beside=False):
         """The results of the faces todo (indices) through the store (stored_faces)."""
-        return stored_or_assessed(self, todo, cost, while_waiting)
+        return stored_or_assessed(self, todo, cost, while_waiting, beside)
 
     def _timed_shape_records(self):
         with self.timed("provenance_s"):
@@ -286,7 +287,9 @@ class BrepRun:
                             share, len(redo))
             self.progress(self.pass_fraction(0.0), "refining %d face(s) that carry the shape's error: %s"
                           % (len(redo), ", ".join("Face%d" % faces[i][0] for i in redo)))
-            again = self.stored_or_assessed(redo, budgets)
+            # the display samples meanwhile: a round's few faces leave a CPU free for them
+            # before long (a single face in a worker too)
+            again = self.stored_or_assessed(redo, budgets, self.samples_while_integrating, beside=True)
             for i, f in zip(redo, again):
                 if not isinstance(f, LeftOutFace):
                     f.disagreement = disagreement(results[i].quad, f.quad)
@@ -459,14 +462,21 @@ class RecordedRun(BrepRun):
     def shape_records(self):
         """None: the reading process makes them (late_records)."""
 
+    def samples_while_integrating(self):
+        """The display samples on the reading process's display meshes (once), made while the
+        faces of a round of stage 5 are integrated in worker processes, timed as
+        provenance_s."""
+        if self.with_fields and self.samples is None:
+            with self.timed("provenance_s"):
+                self.samples = self.display_samples(self.shape.display(self.display_deflection).display)
+
     def late_records(self):
-        """Stage 6: what the reading process made last, timed as provenance_s: the
-        provenance, with OpenCascade's values, and the display samples on its meshes."""
+        """Stage 6: what the reading process made last, timed as provenance_s: the display
+        samples on its meshes (unless made already), made while it makes the provenance, and
+        the provenance, with OpenCascade's values."""
+        self.samples_while_integrating()
         with self.timed("provenance_s"):
-            late = self.shape.late(self.with_fields, self.display_deflection)
-            self.provenance.update(late.provenance)
-            if self.with_fields:
-                self.samples = self.display_samples(late.display)
+            self.provenance.update(self.shape.late().provenance)
 
 
 @dataclass
@@ -509,6 +519,9 @@ class LoadedRun(BrepRun):
 
     def shape_records(self):
         self.provenance.update(shape_provenance(self.shape.shape, self.shape.faces, self.occ_areas, self.boxes))
+
+    def samples_while_integrating(self):
+        """None: the display samples were made before the quadrature."""
 
     def late_records(self):
         """None: every record of the shape was made here."""

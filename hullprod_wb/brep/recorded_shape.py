@@ -2,8 +2,8 @@
 
 RecordedShape stands where backend.assess_brep otherwise has a loaded BRepInput: faces
 (with OpenCascade's cross-check values), description, bounding-box size, the automatic-L_ref
-nodes, and (late) the provenance, with OpenCascade's face areas, and the display
-tessellation. Its faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part
+nodes, and (late) the display tessellation and the provenance, with OpenCascade's face
+areas. Its faces (FaceRecord) give the same FaceField and TrimmedDomain as the Part
 faces would, built from the same numbers. A face sent as OpenCascade's data (another
 surface type, a p-curve the records do not describe) and a face whose trimmed domain
 needs OpenCascade itself (a p-curve whose conversion fails its check) are rebuilt from
@@ -47,8 +47,8 @@ class RecordedShape:
     """The records of a BRep file (record_reader.ReadInChild, whose first frame has arrived):
     info, units, faces [(number, FaceRecord)], size (bounding-box diagonal), read_seconds,
     user_cache (FreeCAD's user cache folder on the reading side);
-    lref_samples() and late() read the later frames, lref_ready() tells whether the first
-    of them is there."""
+    lref_samples(), display() and late() read the later frames, lref_ready() and
+    display_ready() tell whether the first two of them are there."""
 
     def __init__(self, reader):
         first = reader.faces_frame()
@@ -59,7 +59,7 @@ class RecordedShape:
         self.versions = first.versions
         self.user_cache = first.user_cache
         self.faces = [(r.number, FaceRecord(r, self)) for r in first.faces]
-        self._late = None
+        self._late = self._display = None
         self._part_faces = {}
 
     def part_faces(self, key):
@@ -82,21 +82,32 @@ class RecordedShape:
         frame = self.reader.lref_frame()
         return node_samples(frame.lref_points, frame.lref_triangles)
 
-    def late(self, with_fields, display_deflection):
-        """The record_reader.LateFrame (provenance, and with fields display, per face
-        occ_records.display_mesh, and display_deflection) from the reading process (from another one, read for them, when
-        this one was started without fields)."""
-        if self._late is None:
-            frame = self.reader.late_frame()
-            self.reader.close()
-            if with_fields and frame.display is None:
+    def display_ready(self):
+        """Whether display() would return without waiting for the reading process."""
+        return self.reader.display_ready()
+
+    def display(self, display_deflection):
+        """The record_reader.DisplayFrame (display: per face occ_records.display_mesh, and
+        display_deflection) from the reading process, or from another one read for it when
+        this one was started without fields."""
+        if self._display is None:
+            frame = self.reader.display_frame()
+            if frame.display is None:
                 from .reading.record_reader import ReadInChild
                 again = ReadInChild(self.path, self.selection, True, display_deflection, self.reader.cache)
                 try:
-                    frame = again.late_frame()
+                    frame = again.display_frame()
                 finally:
                     again.close()
-            self._late = frame
+            self._display = frame
+        return self._display
+
+    def late(self):
+        """The record_reader.LateFrame (the provenance, with OpenCascade's face areas) from
+        the reading process, which then ends."""
+        if self._late is None:
+            self._late = self.reader.late_frame()
+            self.reader.close()
         return self._late
 
     def close(self):

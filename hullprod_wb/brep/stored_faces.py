@@ -20,10 +20,10 @@ POLL_S = 0.02
 POLL_MAX_S = 0.5
 
 
-def stored_or_assessed(run, todo, cost, while_waiting=None):
+def stored_or_assessed(run, todo, cost, while_waiting=None, beside=False):
     """The results of the faces todo (indices of run.shape.faces): from run.store where their
     keys (run.key) hit, the others assessed (run.face_work) in run.n_jobs processes and
-    stored as they finish; while_waiting as map_faces's. This process's seconds in the
+    stored as they finish; while_waiting and beside as map_faces's. This process's seconds in the
     store (keys, lookups, writes, claims) are added to run.timings["store_s"]."""
     store, faces = run.store, run.shape.faces
     out, missed = [None] * len(todo), []
@@ -57,9 +57,9 @@ def stored_or_assessed(run, todo, cost, while_waiting=None):
         run.finished(todo[k], f)
 
     try:
-        got = map_faces(work, len(missed), min(run.n_jobs, max(len(missed), 1)),
-                        cost=[cost[todo[k]] for k in missed], labels=["Face%d" % faces[todo[k]][0] for k in missed],
-                        on_done=done, while_waiting=while_waiting)
+        got = map_faces(work, len(missed), run.n_jobs, cost=[cost[todo[k]] for k in missed],
+                        labels=["Face%d" % faces[todo[k]][0] for k in missed], on_done=done,
+                        while_waiting=while_waiting, beside=beside)
     finally:
         with run.timed("store_s"):
             for k in missed:

@@ -146,19 +146,21 @@ def _run_one(index):
     return _WORK(index)
 
 
-def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting=None):
-    """[work(0), ..., work(n - 1)] with jobs worker processes (resolve_jobs first).
+def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting=None, beside=False):
+    """[work(0), ..., work(n - 1)] with jobs worker processes (resolve_jobs first; at most
+    n of them).
 
     work(i) returns a picklable result; cost (n,) orders the hand-out (largest first);
     on_done(i, result) is called in this process as each finishes; while_waiting() is
     called once in this process, while the workers run (first, without workers; so too
-    where forking has stopped being safe since jobs was resolved). An error
+    where forking has stopped being safe since jobs was resolved). beside: a single item
+    goes to a worker too (with jobs > 1), so that while_waiting runs beside it. An error
     raised by work is raised here; a worker that dies (a crash in the geometry kernel) is
     reported as an InputError naming the items (labels, default their indices) that were
     still running."""
     global _WORK
     results = [None] * n
-    if jobs <= 1 or n <= 1 or not fork_is_safe():
+    if jobs <= 1 or n < 1 or (n == 1 and not beside) or not fork_is_safe():
         if while_waiting is not None:
             while_waiting()
         for i in range(n):
@@ -172,7 +174,7 @@ def map_faces(work, n, jobs, cost=None, on_done=None, labels=None, while_waiting
     order = sorted(range(n), key=lambda i: -(cost[i] if cost is not None else 0.0))
     _WORK = work
     try:
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+        with ProcessPoolExecutor(max_workers=min(jobs, n), mp_context=multiprocessing.get_context("fork")) as pool:
             pending = {pool.submit(_run_one, i): i for i in order}
             try:
                 if while_waiting is not None:

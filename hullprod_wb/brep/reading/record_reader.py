@@ -11,14 +11,16 @@ rebuilt in the process that integrates it, which then loads FreeCAD (recorded_sh
 either way the fields and domains are built from the same numbers as from the faces read
 in that process.
 
-The child sends three frames: FacesFrame, the face records (occ_records.FaceData, with
+The child sends four frames: FacesFrame, the face records (occ_records.FaceData, with
 OpenCascade's values at the cross-check points and the edges' vertices, and the faces sent
 as data) and the file's description; LrefFrame, the nodes of the automatic-L_ref
 tessellation (and the described faces as data too, for a trimmed domain that needs
-OpenCascade); then, at the lowest priority, LateFrame, what is only needed at the end
-(provenance with OpenCascade's face areas, the display tessellation). The records come
-first, so that the parent sets the faces up while the tessellation runs
-(ReadInChild.lref_ready tells it whether the next frame is there). A child
+OpenCascade); then, at the lowest priority, what is only needed at the end: DisplayFrame,
+the display tessellation, and LateFrame, the provenance with OpenCascade's face areas. The
+records come first, so that the parent sets the faces up while the tessellation runs
+(ReadInChild.lref_ready tells it whether the next frame is there); the display tessellation
+before the provenance, so that the parent samples the fields on it while the child makes
+the rest (ReadInChild.display_ready). A child
 that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied.
 
 Nothing here imports numpy: the reading side never loads it.
@@ -77,14 +79,19 @@ class LrefFrame:
 
 
 @dataclass(frozen=True)
-class LateFrame:
-    """The last frame: the shape's provenance (with OpenCascade's face areas) and, when the
-    fields were asked for, the display tessellation of every face (occ_records.display_mesh)
-    and its deflection (None otherwise)."""
+class DisplayFrame:
+    """The third frame: when the fields were asked for, the display tessellation of every
+    face (occ_records.display_mesh) and its deflection (None otherwise)."""
 
-    provenance: dict
     display: Optional[list] = None
     display_deflection: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class LateFrame:
+    """The last frame: the shape's provenance (with OpenCascade's face areas)."""
+
+    provenance: dict
 
 
 def part_record(face, why, number, part):
@@ -158,7 +165,7 @@ def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
     # with the described faces as data too, for a trimmed domain that needs OpenCascade
     # (recorded_shape.FaceRecord.part_face): here before any worker process starts
     yield {FRAME: LrefFrame(pts, tris, time.perf_counter() - t, faces_to_bytes(described) if described else None),
-           STAGE: "computing the faces' areas and display tessellation"}
+           STAGE: "making the display tessellation, the faces' areas and the edge report"}
     # the rest is needed only at the end: give the CPUs to the integration meanwhile
     try:
         os.nice(19)
@@ -170,12 +177,13 @@ def _frames(inp, with_fields, display_deflection, read_seconds, cache=None):
         deflection = display_deflection or DISPLAY_DEFLECTION * size
         with lookups("display_meshes_from_store"):
             display = display_meshes([f for _, f in inp.faces], deflection, SAMPLE_DEFLECTION * size, store, digests)
+    yield {FRAME: DisplayFrame(display, deflection), STAGE: "computing the faces' areas and the edge report"}
     with lookups("occ_areas_from_store"):
         areas = face_areas(inp.faces, store, digests)
     with lookups("edge_reports_from_store"):
         provenance = shape_provenance(inp.shape, inp.faces, areas, boxes, store, digests)
     provenance.update(lookups.record)
-    yield {FRAME: LateFrame(provenance, display, deflection)}
+    yield {FRAME: LateFrame(provenance)}
 
 
 def display_meshes(faces, deflection, lref_deflection, store=None, digests=None):
@@ -263,14 +271,15 @@ class ReadInChild:
     """The records of a BRep file, read by a child started now (reader_process: forked from
     a clean process, else a fresh interpreter; see the module doc).
 
-    faces_frame(), lref_frame() and late_frame() return the three frames (FacesFrame,
-    LrefFrame, LateFrame) as the child sent them, waiting for them; lref_ready() tells whether
-    lref_frame() would wait. An InputError of the child (an unreadable file, a bad face
+    faces_frame(), lref_frame(), display_frame() and late_frame() return the four frames
+    (FacesFrame, LrefFrame, DisplayFrame, LateFrame) as the child sent them, waiting for
+    them; lref_ready() and display_ready() tell whether lref_frame() and display_frame()
+    would wait. An InputError of the child (an unreadable file, a bad face
     number) is raised here with its message; a child that ends before sending a frame raises
     ReaderDied (an InputError) naming the file and what OpenCascade was doing.
     """
 
-    FRAMES = 3
+    FRAMES = 4
 
     def __init__(self, path, faces=None, with_fields=True, display_deflection=None, cache=None):
         self.path, self.faces = path, faces
@@ -288,14 +297,23 @@ class ReadInChild:
         """LrefFrame: the automatic-L_ref tessellation and the described faces as data."""
         return self._frame(1)
 
-    def late_frame(self):
-        """LateFrame: the provenance and the display tessellation."""
+    def display_frame(self):
+        """DisplayFrame: the display tessellation."""
         return self._frame(2)
+
+    def late_frame(self):
+        """LateFrame: the provenance."""
+        return self._frame(3)
 
     def lref_ready(self):
         """Whether lref_frame() would return without waiting for the child (or the child has
         ended)."""
         return self._ready(1)
+
+    def display_ready(self):
+        """Whether display_frame() would return without waiting for the child (or the child
+        has ended)."""
+        return self._ready(2)
 
     def _ready(self, k):
         """Whether frame k has arrived, or the next frame has begun to arrive."""
