@@ -6,9 +6,9 @@ that its p-curves stay exact; the face rebuilt on the moved surface over the sam
 box). The hull's faces are written as base.brep and as variant_K.brep (the pole moved by
 K steps of 1e-3 of the face's box diagonal), and the command runs side by side, in one run
 of this script:
-  - the first variant with --no-cache and with an empty store, alternating, COLD_PAIRS times each
-    (medians: what the store costs on misses; and the main process's own seconds in the store
-    on the empty-store runs, timings.store_s);
+  - the first variant with --no-cache and with an empty store (a new folder each time),
+    alternating, COLD_PAIRS times each (medians: what the store costs on misses; and the main
+    process's own seconds in the store on the empty-store runs, timings.store_s);
   - the first variant after the base filled the store (one face changed: warm), its signature
     against the cold run's;
   - a family of N variants with a fresh store, as a multiple of one cold run (the median
@@ -137,8 +137,9 @@ def bench(path, n, work, scheduler):
     for k in range(COLD_PAIRS):  # alternating: the machine's drift falls on both alike
         t, cold = run(variant[0], None)
         offs.append(t)
-        shutil.rmtree(store("empty"), ignore_errors=True)
-        t, doc = run(variant[0], store("empty"))
+        # a folder of its own: entries written just after the last run's were removed would
+        # wait on the file system (ext4 allocates no recently freed inode), as a first run does not
+        t, doc = run(variant[0], store("empty-%d" % k))
         empties.append(t)
         own.append(doc["timings"]["store_s"])
     t_base, _ = run(os.path.join(work, "base.brep"), store("warm"))
