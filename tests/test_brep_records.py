@@ -222,7 +222,8 @@ def test_the_reading_side_does_not_load_numpy(tmp_path):
         "from hullprod_wb.brep.reading import record_reader\n"
         "from hullprod_wb.brep.reading.loading import load_brep\n"
         "frames = list(record_reader._frames(load_brep(%r), True, None, 0.0))\n"
-        "assert len(frames) == 3 and frames[0][record_reader.FRAME].faces, frames[0]\n"
+        "assert len(frames) == 4 and frames[0][record_reader.FRAME].faces, frames[0]\n"
+        "assert len(frames[2][record_reader.FRAME].display) == 1, frames[2]\n"
         "assert 'numpy' not in sys.modules, sorted(m for m in sys.modules if 'numpy' in m)[:5]\n"
         "print('ok', len(frames[0][record_reader.FRAME].faces))\n" % (ROOT, path))
     p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
