@@ -287,9 +287,11 @@ class BrepRun:
                             share, len(redo))
             self.progress(self.pass_fraction(0.0), "refining %d face(s) that carry the shape's error: %s"
                           % (len(redo), ", ".join("Face%d" % faces[i][0] for i in redo)))
-            # the display samples meanwhile: a round's few faces leave a CPU free for them
-            # before long (a single face in a worker too)
-            again = self.stored_or_assessed(redo, budgets, self.samples_while_integrating, beside=True)
+            # the display samples meanwhile, where they are still to make: a round's few faces
+            # leave a CPU free for them before long (a single face in a worker too)
+            late = self.with_fields and self.samples is None
+            again = self.stored_or_assessed(redo, budgets, self.samples_while_integrating if late else None,
+                                            beside=late)
             for i, f in zip(redo, again):
                 if not isinstance(f, LeftOutFace):
                     f.disagreement = disagreement(results[i].quad, f.quad)
