@@ -47,8 +47,8 @@ class RecordedShape:
     """The records of a BRep file (record_reader.ReadInChild, whose first frame has arrived):
     info, units, faces [(number, FaceRecord)], size (bounding-box diagonal), read_seconds,
     user_cache (FreeCAD's user cache folder on the reading side);
-    lref_samples(), display() and late() read the later frames, lref_ready() and
-    display_ready() tell whether the first two of them are there."""
+    lref_samples(), display() and late() read the later frames, lref_ready() tells whether
+    the first of them is there."""
 
     def __init__(self, reader):
         first = reader.faces_frame()
@@ -81,10 +81,6 @@ class RecordedShape:
         from .display import node_samples
         frame = self.reader.lref_frame()
         return node_samples(frame.lref_points, frame.lref_triangles)
-
-    def display_ready(self):
-        """Whether display() would return without waiting for the reading process."""
-        return self.reader.display_ready()
 
     def display(self, display_deflection):
         """The record_reader.DisplayFrame (display: per face occ_records.display_mesh, and

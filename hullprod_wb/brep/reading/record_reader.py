@@ -20,7 +20,7 @@ the display tessellation, and LateFrame, the provenance with OpenCascade's face 
 records come first, so that the parent sets the faces up while the tessellation runs
 (ReadInChild.lref_ready tells it whether the next frame is there); the display tessellation
 before the provenance, so that the parent samples the fields on it while the child makes
-the rest (ReadInChild.display_ready). A child
+the rest. A child
 that dies (an exit or a signal in OpenCascade) makes the parent raise ReaderDied.
 
 Nothing here imports numpy: the reading side never loads it.
@@ -273,10 +273,10 @@ class ReadInChild:
 
     faces_frame(), lref_frame(), display_frame() and late_frame() return the four frames
     (FacesFrame, LrefFrame, DisplayFrame, LateFrame) as the child sent them, waiting for
-    them; lref_ready() and display_ready() tell whether lref_frame() and display_frame()
-    would wait. An InputError of the child (an unreadable file, a bad face
-    number) is raised here with its message; a child that ends before sending a frame raises
-    ReaderDied (an InputError) naming the file and what OpenCascade was doing.
+    them; lref_ready() tells whether lref_frame() would wait. An InputError of the child (an
+    unreadable file, a bad face number) is raised here with its message; a child that ends
+    before sending a frame raises ReaderDied (an InputError) naming the file and what
+    OpenCascade was doing.
     """
 
     FRAMES = 4
@@ -309,11 +309,6 @@ class ReadInChild:
         """Whether lref_frame() would return without waiting for the child (or the child has
         ended)."""
         return self._ready(1)
-
-    def display_ready(self):
-        """Whether display_frame() would return without waiting for the child (or the child
-        has ended)."""
-        return self._ready(2)
 
     def _ready(self, k):
         """Whether frame k has arrived, or the next frame has begun to arrive."""
