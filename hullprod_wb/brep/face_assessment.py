@@ -53,7 +53,7 @@ def assess_face(number, face, thresholds, lref, opts, progress=null_progress, gr
         for side in deg.sides:
             audits.append(singular.probe_side(ff, domain, side, s.u_breaks, s.v_breaks))
     f = FaceAssessment(number, ff, domain, (gu, gv), deg, quads, quad, audits)
-    f.budget_needed = None if point_budget is None or None in needs else max(needs)
+    f.budget_needed = None if None in needs else max(needs)  # None without a budget too
     if cross_checks:
         f.cross_check = face_cross_checks(f, s.check.get("rule"), s.check.get("seconds", 0.0),
                                           reference=face.occ_reference if s.recorded else None)

@@ -76,9 +76,9 @@ def settings_digest(lref, thresholds, opts, alone, cross_checks, occ_version, re
     alone (in patch groups), the cross-checks, OpenCascade's version, how the faces were
     read (the run's kind), the software_fingerprint and numpy's BLAS with its threads
     (core.blas_identity: they set the last bits of the matrix products)."""
+    quadrature = sorted((k, v) for k, v in opts.record().items() if k != "point_budget")
     return digest([software_fingerprint(), float(lref), float(thresholds.tau_H), float(thresholds.tau_K),
-                   sorted((k, v) for k, v in opts.record().items() if k != "point_budget"), bool(alone), bool(cross_checks), occ_version, reading,
-                   blas_identity()])
+                   quadrature, bool(alone), bool(cross_checks), occ_version, reading, blas_identity()])
 
 
 #: What stands for the budget in a face's free key.

@@ -76,10 +76,8 @@ class ResultStore:
         """The result stored under key, or None (absent, damaged or unreadable, or a result
         accept(result) refuses: a miss, counted when count_miss)."""
         path = self.path(key)
-        try:
-            with open(path, "rb") as fh:
-                data = fh.read()
-        except OSError:
+        data = _read(path)
+        if data is None:
             self.counts.misses += count_miss
             return None
         value = self._decode(key, data)
@@ -101,11 +99,8 @@ class ResultStore:
 
     def holds(self, key, accept=None):
         """Whether a whole entry is under key that accept(result) takes (nothing counted)."""
-        try:
-            with open(self.path(key), "rb") as fh:
-                value = self._decode(key, fh.read())
-        except OSError:
-            return False
+        data = _read(self.path(key))
+        value = None if data is None else self._decode(key, data)
         return value is not None and (accept is None or bool(accept(value)))
 
     def put(self, key, value):
@@ -226,6 +221,15 @@ class ResultStore:
             return pickle.loads(payload)
         except Exception:  # a payload of classes this version does not have: a miss
             return None
+
+
+def _read(path):
+    """The bytes of the file at path, None when it cannot be read."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read()
+    except OSError:
+        return None
 
 
 def _remove(path):
