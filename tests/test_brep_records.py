@@ -396,3 +396,29 @@ def test_the_command_starts_the_reading_process_before_parsing_its_arguments(tmp
         assert r.stderr.count("reading process for %s" % path) == readers, r.stderr
         values.append(doc["signature"])
     assert values[0] == values[1]
+
+
+def test_faces_with_equal_p_curve_records_share_one_domain():
+    """Untrimmed faces on one parameter rectangle have equal p-curve records: their domains
+    are built once and are, to the bit, what a build of their own gives; a trimmed face's
+    records differ and give its own."""
+    import pickle
+    from hullprod_wb.brep.geometry import trimmed_domain
+    from hullprod_wb.brep.geometry.surface_eval import SurfaceEvaluator
+    from hullprod_wb.brep.reading.occ_records import face_record
+    faces = [wavy_bspline_face().Faces[0], wavy_bspline_face(7, 4).Faces[0], trimmed_bspline_face()]
+    records = [face_record(f, i + 1, i)[0] for i, f in enumerate(faces)]
+    assert records[0].pcurves == records[1].pcurves != records[2].pcurves
+
+    def domain(i):
+        return trimmed_domain.TrimmedDomain.from_record(records[i], SurfaceEvaluator.for_face(faces[i]))
+
+    trimmed_domain._CLOSED_LOOPS.clear()
+    shared = [domain(i) for i in range(3)]
+    assert shared[0] is not shared[1] and shared[0].curves is shared[1].curves
+    assert shared[2].curves is not shared[0].curves and not shared[2].is_rectangle
+    for i in range(3):
+        trimmed_domain._CLOSED_LOOPS.clear()
+        own = domain(i)
+        assert pickle.dumps(own) == pickle.dumps(shared[i])
+        assert own.face_parameter_range == shared[i].face_parameter_range == tuple(faces[i].ParameterRange)

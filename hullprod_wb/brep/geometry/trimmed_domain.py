@@ -23,7 +23,9 @@ Faces read from files may need exact repairs, which TrimmedDomain.from_face make
 InputError, and the face's integration then falls back to polygon_domain, a domain of
 straight segments through the projected points of its 3-D edges.
 """
+import copy
 import functools
+import pickle
 
 import numpy as np
 
@@ -197,15 +199,24 @@ class TrimmedDomain:
         """Domain of a face from the p-curves and edge vertices of its occ_records.FaceData, the
         same as from_face gives for that face (evaluator: its SurfaceEvaluator, for closing
         loop gaps); None when a p-curve's conversion fails its check (from_face then
-        evaluates it through OpenCascade)."""
-        curves = [curve_from_record(r) for r in rec.pcurves]
-        if any(c is None for c in curves):
-            return None
-        try:
-            domain = cls(curves)
-        except OpenTrimLoops as exc:
-            segments, notes = close_gaps(evaluator, rec.end_vertices, rec.vertices, exc)
-            domain = cls(curves + segments, notes)
+        evaluates it through OpenCascade). Faces whose p-curve records are equal share one
+        domain built from them (_closed_loops_of), each with its own face_parameter_range."""
+        key = pickle.dumps(rec.pcurves, protocol=4)
+        domain = _closed_loops_of(cls, key)
+        if domain is None:
+            curves = [curve_from_record(r) for r in rec.pcurves]
+            if any(c is None for c in curves):
+                return None
+            try:
+                domain = cls(curves)
+            except OpenTrimLoops as exc:  # closed through the face's own surface
+                segments, notes = close_gaps(evaluator, rec.end_vertices, rec.vertices, exc)
+                domain = cls(curves + segments, notes)
+            else:
+                _CLOSED_LOOPS[key] = domain
+                while len(_CLOSED_LOOPS) > RECORD_DOMAINS_KEPT:
+                    _CLOSED_LOOPS.pop(next(iter(_CLOSED_LOOPS)))
+        domain = copy.copy(domain)  # shares the built arrays, which nothing changes
         domain.face_parameter_range = tuple(rec.parameter_range)
         return domain
 
@@ -425,6 +436,23 @@ def polygon_domain(face, reason=None):
             if np.any(a != b):
                 curves.append(NurbsCurve2D.line(a, b))
     return TrimmedDomain(curves, fallback=reason)
+
+
+#: Domains of closed p-curve loops kept by their records (the faces of a hull's untrimmed
+#: patches often share the four sides of one parameter rectangle, [0, 1]^2).
+RECORD_DOMAINS_KEPT = 256
+_CLOSED_LOOPS = {}
+
+
+def _closed_loops_of(cls, key):
+    """The domain built from the p-curve records whose pickle is key, when their loops
+    closed without the surface's help (a domain closed through a face's surface is that
+    face's own), else None; the most recently used first kept."""
+    domain = _CLOSED_LOOPS.pop(key, None)
+    if domain is not None and type(domain) is cls:
+        _CLOSED_LOOPS[key] = domain
+        return domain
+    return None
 
 
 @functools.lru_cache(maxsize=256)
