@@ -92,7 +92,7 @@ class Assessment:
         return writers.json_safe(doc)
 
     def to_json(self, indent=2):
-        return writers.dumps(self.to_dict(), indent=indent)
+        return writers.dumps(self.to_dict(), indent=indent, checked=True)
 
     def save(self, directory, overwrite=False):
         """Write signature.json, signature.csv and, with fields, fields.vtp and fields.csv.
@@ -103,7 +103,7 @@ class Assessment:
         doc = self.to_dict()
         paths = {"json": os.path.join(directory, "signature.json"),
                  "csv": os.path.join(directory, "signature.csv")}
-        writers.write_json(paths["json"], doc)
+        writers.write_json(paths["json"], doc, checked=True)
         writers.write_signature_csv(paths["csv"], doc)
         if self.fields is not None:
             paths["vtp"] = os.path.join(directory, "fields.vtp")

@@ -46,11 +46,12 @@ LAID_OUT_LEVELS = 3
 _ONE_LINE = json.JSONEncoder(allow_nan=False, separators=(", ", ": ")).encode
 
 
-def dumps(doc, indent=2):
+def dumps(doc, indent=2, checked=False):
     """Strict JSON text (no NaN: json_safe and allow_nan=False). indent None: one line; else
     the first LAID_OUT_LEVELS levels one member a line, indented, and each deeper value on
-    its line (the encoder's fast path)."""
-    safe = json_safe(doc)
+    its line (the encoder's fast path). checked: doc is json_safe's output already (a
+    result's to_dict), not walked again."""
+    safe = doc if checked else json_safe(doc)
     if indent is None:
         return _ONE_LINE(safe)
     return _laid_out(safe, " " * indent, 0)
@@ -67,9 +68,10 @@ def _laid_out(obj, step, level):
     return "[" + inner + ("," + inner).join(parts) + "\n" + step * level + "]"
 
 
-def write_json(path, doc):
+def write_json(path, doc, checked=False):
+    """doc as dumps writes it (checked: as dumps's), and a newline, into path."""
     with open(path, "w", encoding="utf-8") as fh:
-        fh.write(dumps(doc))
+        fh.write(dumps(doc, checked=checked))
         fh.write("\n")
 
 
