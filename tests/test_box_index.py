@@ -3,6 +3,7 @@ every box that holds the point (inclusive bounds, as OpenCascade's BoundBox.isIn
 ascending order, with large boxes and flat ones too."""
 import random
 
+from conftest import needs_freecad
 from hullprod_wb.brep.reading.provenance import BoxIndex
 
 
@@ -43,3 +44,47 @@ def test_a_large_box_is_kept_apart_and_small_boxes_are_bucketed():
     assert index.large == [len(boxes) - 1]
     near = index.near((10.5, 3.5, 7.5))
     assert 10 * 400 + 3 * 20 + 7 in near and len(boxes) - 1 in near and len(near) < 10
+
+
+@needs_freecad
+def test_points_find_the_edges_distance_to_shape_finds():
+    """provenance._on_edges (a projection on the edge's curve first, the distance to the edge
+    where that does not decide, edges through FaceEdges' index) finds the same first edge
+    and parameter as OpenCascade's distance to each edge in order, for points on, near and
+    beyond the edges of a face of 48 edges."""
+    import math
+    from hullprod_wb.freecad_env import import_freecad
+    FreeCAD = import_freecad()
+    import Part
+    from hullprod_wb.brep.reading.provenance import FaceEdges, _enlarged, _on_edges
+    V = FreeCAD.Vector
+    ring = [V(10 * math.cos(2 * math.pi * i / 48), 6 * math.sin(2 * math.pi * i / 48), 0.0) for i in range(48)]
+    face = Part.Face(Part.Wire(Part.makePolygon(ring + [ring[0]])))
+    tol = 1e-3
+    edges = FaceEdges([(e, _enlarged(e.BoundBox, tol)) for e in face.Edges])
+    assert edges.index is not None
+
+    def reference(p):
+        vertex = Part.Vertex(p)
+        for e, bb in edges.pairs:
+            if bb.isInside(p) and e.distToShape(vertex)[0] < tol:
+                return e, e.Curve.parameter(p)
+        return None
+
+    rng = random.Random(3)
+    points = []
+    for e in face.Edges:
+        a, b = e.FirstParameter, e.LastParameter
+        d = e.Curve.Direction
+        normal = V(-d.y, d.x, 0.0)
+        for t in (a, b, a + 0.3 * (b - a), a - 0.5 * tol, b + 0.9 * tol, b + 2.0 * tol):
+            for off in (0.0, 0.5 * tol, 0.99 * tol, 1.5 * tol, rng.uniform(-tol, tol)):
+                points.append(e.Curve.value(t) + normal * off)
+    found = 0
+    for p in points:
+        ours, ref = _on_edges(p, edges, tol), reference(p)
+        assert (ours is None) == (ref is None)
+        if ref is not None:
+            found += 1
+            assert ours[0].isSame(ref[0]) and ours[1] == ref[1]
+    assert 0 < found < len(points)

@@ -42,17 +42,24 @@ def _normals_on_edge(face, edge, ts, points):
 
 
 def _on_edges(point, edges, tol):
-    """(edge, parameter) of the first edge within tol of point, or None; edges: (edge, its
-    box enlarged by tol) pairs, a box that does not hold the point ruling its edge out."""
+    """(edge, parameter) of the first edge within tol of point, or None; edges: FaceEdges,
+    a box that does not hold the point ruling its edge out. The point's projection on the
+    edge's curve, when it falls inside the edge and within tol, decides at once (the edge's
+    distance is at most the projection's); otherwise OpenCascade's distance to the edge
+    does."""
     vertex = None
-    for e, bb in edges:
+    for e, bb in edges.near(point):
         if not bb.isInside(point):
             continue
+        curve = e.Curve
+        t = curve.parameter(point)
+        if e.FirstParameter <= t <= e.LastParameter and (curve.value(t) - point).Length < tol:
+            return e, t
         if vertex is None:
             import Part
             vertex = Part.Vertex(point)
         if e.distToShape(vertex)[0] < tol:
-            return e, e.Curve.parameter(point)
+            return e, t
     return None
 
 
@@ -101,6 +108,26 @@ class BoxIndex:
         return sorted(found + self.large) if self.large else found
 
 
+class FaceEdges:
+    """A face's boundary edges with their boxes enlarged by the tolerance, (edge, box)
+    pairs in the face's order; near(point) gives, in that order, those whose boxes may hold
+    the point (through a BoxIndex when the face has more than INDEXED_EDGES of them)."""
+
+    INDEXED_EDGES = 16
+
+    def __init__(self, pairs):
+        self.pairs = pairs
+        self.index = BoxIndex([_bounds(bb) for _, bb in pairs]) if len(pairs) > self.INDEXED_EDGES else None
+
+    def __iter__(self):
+        return iter(self.pairs)
+
+    def near(self, point):
+        if self.index is None:
+            return self.pairs
+        return [self.pairs[i] for i in self.index.near(point)]
+
+
 def _enlarged(bb, tol):
     out = type(bb)(bb)  # a copy
     out.enlarge(tol)
@@ -142,7 +169,7 @@ def edge_report(shape, faces, boxes=None, store=None, digests=None):
         for e, ebb in zip(face.Edges, ebbs):
             if e.Length > tol:
                 edges.append((e, _enlarged(ebb, tol)))
-        boxes.append((number, face, _enlarged(bb, tol), edges))
+        boxes.append((number, face, _enlarged(bb, tol), FaceEdges(edges)))
     index = BoxIndex([_bounds(b[2]) for b in boxes])
     total = {"n_free": 0, "free_len": 0.0, "n_shared": 0, "shared_len": 0.0, "crease_len": 0.0}
     creases = {}
