@@ -227,9 +227,10 @@ class TrimmedDomain:
         for c in self.curves:
             s = np.unique(np.concatenate((c.sample_params(), c.breaks, [c.s0, c.s1])))
             s = s[(s >= c.s0) & (s <= c.s1)]
+            uv, d = c.value_and_derivative(s)
             self._s.append(s)
-            self._uv.append(c.value(s))
-            self._d.append(c.derivative(s))
+            self._uv.append(uv)
+            self._d.append(d)
         allpts = np.concatenate(self._uv)
         lo, hi = allpts.min(0), allpts.max(0)
         self._scale = max(float(np.max(hi - lo)), 1e-300)
@@ -309,7 +310,8 @@ class TrimmedDomain:
             lo, hi = sorted((self.piece_s_lo[k], self.piece_s_hi[k]))
             s = self._s[ci]
             s = np.concatenate(([lo], s[(s > lo) & (s < hi)], [hi]))
-            u = c.value(s)[:, 0]
+            # the curve's samples, when the piece is the whole curve: their values as made
+            u = (self._uv[ci] if np.array_equal(s, self._s[ci]) else c.value(s))[:, 0]
             if self.piece_s_hi[k] < self.piece_s_lo[k]:
                 s, u = s[::-1], u[::-1]
             self._piece_s.append(s)
@@ -319,7 +321,9 @@ class TrimmedDomain:
         # ends where a piece has a vertical tangent (a strip width there goes like sqrt)
         self.piece_turns = np.zeros((self.piece_curve.size, 2), bool)  # at u_lo, at u_hi
         for k, ci in enumerate(self.piece_curve):
-            d = self.curves[ci].derivative([self.piece_s_lo[k], self.piece_s_hi[k]])
+            ends = np.array([self.piece_s_lo[k], self.piece_s_hi[k]])
+            s = self._s[ci]
+            d = self._d[ci] if np.array_equal(ends, s) else self.curves[ci].derivative(ends)
             self.piece_turns[k] = np.abs(d[:, 0]) <= 1e-8 * np.maximum(np.hypot(d[:, 0], d[:, 1]),
                                                                        1e-300)
         self.turning_u = np.unique(np.concatenate((self.piece_u_lo[self.piece_turns[:, 0]],
