@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .gauss_rules import legendre_vander
+from .gauss_rules import gauss_rule, legendre_vander
 
 #: Points per block of two-dimensional interpolant evaluations (bounds the memory of the
 #: gathered coefficients: block x 3 x (2o)^2 floats).
@@ -36,6 +36,16 @@ def grid_matrices(x):
     grid = np.concatenate((0.5 * x, 0.5 + 0.5 * x))
     LV = legendre_vander
     return np.linalg.inv(LV(2.0 * grid - 1.0, 2 * o - 1)), LV(2.0 * x - 1.0, 2 * o - 1)
+
+
+@functools.lru_cache(maxsize=None)
+def grid_matrices_of_order(order):
+    """grid_matrices of the Gauss nodes of order (gauss_rules.gauss_rule), made once an
+    order, read-only."""
+    out = grid_matrices(gauss_rule(order)[0])
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 class InterpolantFit(NamedTuple):

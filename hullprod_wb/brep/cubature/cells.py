@@ -6,7 +6,7 @@ acceptance of cells against an error budget."""
 import numpy as np
 
 from ...core.errors import InputError
-from .gauss_rules import gauss_nodes
+from .gauss_rules import gauss_rule
 from .patches import Patches
 from .settings import ACCEPT_FRACTION, AREA, CLASS_AREAS, MIN_INITIAL_CELLS, PREFETCH_CELLS
 
@@ -222,7 +222,7 @@ class NodePrefetch:
                  max_depth=5):
         self.f = CountedField(field)
         self.order = int(order)
-        self.x, _ = gauss_nodes(self.order)
+        self.x = gauss_rule(self.order)[0]
         self.patches = patches if patches is not None else Patches.of(domain, u_breaks, v_breaks)
         self.cells = [patch_cells(self.patches, patch_range, int(max_depth))[0]]
         self.cells.append(child_cells(self.cells[0]))

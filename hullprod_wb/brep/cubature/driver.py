@@ -36,8 +36,8 @@ import numpy as np
 
 from ...core.errors import InputError
 from ...core.thresholds import check_positive, classify
-from .cell_interpolant import grid_matrices
-from .gauss_rules import embedded_weights, gauss_nodes
+from .cell_interpolant import grid_matrices_of_order
+from .gauss_rules import gauss_rule
 from .patches import Patches, check_domain
 from .cells import (CellSet, CountedField, child_cells, greedy_accept, patch_cells, share_area_error, cell_nodes,
                     tensor_cells, values_at_nodes)
@@ -71,12 +71,12 @@ class Integration:
         self.zero_charge = 0.0
         self.progress = progress
         self.reference = np.array([abs(float((reference or {}).get(q, 0.0))) for q in QUANTITIES])
-        self.x, self.w = gauss_nodes(order)
-        self.w_embedded = embedded_weights(self.x)
+        self.x, self.w, self.w_embedded = gauss_rule(order)
         self.patches = Patches.of(domain, u_breaks, v_breaks) if prefetch is None else prefetch.patches
         # what the lines read; K = 0 cuts them only once the bounds charged instead would
         # not fit (_lines_of)
-        self.ls = LineSetting(self.patches, self.f, tau_H, tau_K, class_max_depth, *grid_matrices(self.x))
+        self.ls = LineSetting(self.patches, self.f, tau_H, tau_K, class_max_depth,
+                              *grid_matrices_of_order(order))
         self.active, level = patch_cells(self.patches, patch_range, max_depth)
         self.max_depth = max_depth if max_depth is not None else 0
         if prefetch is not None and (prefetch.order != order or not all(

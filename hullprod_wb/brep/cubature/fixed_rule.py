@@ -4,7 +4,7 @@ in which a face of many patches is integrated (patch_groups)."""
 import numpy as np
 
 from ...core.errors import InputError
-from .gauss_rules import embedded_weights, gauss_nodes
+from .gauss_rules import gauss_rule
 from .patches import Patches, check_domain
 from .cells import cell_nodes, tensor_cells, values_at_nodes
 from .driver import Integration
@@ -36,8 +36,7 @@ def patch_area(domain, area_element, order, u_breaks=(), v_breaks=(), area_eleme
     order = int(order)
     if order < 3:
         raise InputError("patch_area() needs order >= 3, got %r" % (order,))
-    x, w = gauss_nodes(order)
-    we = embedded_weights(x)
+    x, w, we = gauss_rule(order)
     patches = Patches.of(domain, u_breaks, v_breaks)
     n = patches.size
     zero, one = np.zeros(n), np.ones(n)

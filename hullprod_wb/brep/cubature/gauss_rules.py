@@ -2,6 +2,8 @@
 Gauss-Legendre nodes and weights, the embedded lower-degree rule on the Gauss nodes, the
 Gauss-Kronrod 3/7 pair, and weights integrating the interpolant of samples over a piece.
 """
+import functools
+
 import numpy as np
 
 
@@ -43,6 +45,20 @@ def gauss_nodes(order):
     """Gauss-Legendre nodes and weights on [0, 1], (order,) each."""
     x, w = np.polynomial.legendre.leggauss(order)
     return 0.5 * (x + 1.0), 0.5 * w
+
+
+@functools.lru_cache(maxsize=None)
+def gauss_rule(order):
+    """(x, w, w_embedded): gauss_nodes(order) and their embedded_weights, made once an
+    order (an eigenvalue problem and a solve; every integration takes them), read-only."""
+    x, w = gauss_nodes(order)
+    return _read_only(x), _read_only(w), _read_only(embedded_weights(x))
+
+
+def _read_only(a):
+    if a is not None:
+        a.setflags(write=False)
+    return a
 
 
 def _symmetric(x_pos):

@@ -16,7 +16,7 @@ class LineSetting:
     """What the line integration and the cut search read of one integration: its patches,
     the field (counting its points, cells.CountedField), the class thresholds tau_H, tau_K
     (eq:class_thresholds), the halvings in sigma of a cell's lines (class_max_depth), the
-    interpolants' grid matrices (cell_interpolant.grid_matrices) and whether K = 0 cuts the
+    interpolants' grid matrices (cell_interpolant.grid_matrices_of_order) and whether K = 0 cuts the
     lines (resolve_zero; a new setting is made when it is switched on)."""
 
     patches: object
