@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .gauss_rules import gauss_rule, legendre_vander
+from .gauss_rules import gauss_rule, legendre_vander, read_only
 
 #: Points per block of two-dimensional interpolant evaluations (bounds the memory of the
 #: gathered coefficients: block x 3 x (2o)^2 floats).
@@ -42,10 +42,7 @@ def grid_matrices(x):
 def grid_matrices_of_order(order):
     """grid_matrices of the Gauss nodes of order (gauss_rules.gauss_rule), made once an
     order, read-only."""
-    out = grid_matrices(gauss_rule(order)[0])
-    for a in out:
-        a.setflags(write=False)
-    return out
+    return tuple(read_only(a) for a in grid_matrices(gauss_rule(order)[0]))
 
 
 class InterpolantFit(NamedTuple):

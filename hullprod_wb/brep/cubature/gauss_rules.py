@@ -52,10 +52,11 @@ def gauss_rule(order):
     """(x, w, w_embedded): gauss_nodes(order) and their embedded_weights, made once an
     order (an eigenvalue problem and a solve; every integration takes them), read-only."""
     x, w = gauss_nodes(order)
-    return _read_only(x), _read_only(w), _read_only(embedded_weights(x))
+    return read_only(x), read_only(w), read_only(embedded_weights(x))
 
 
-def _read_only(a):
+def read_only(a):
+    """The array a (or None) made read-only: for the rules and matrices made once and shared."""
     if a is not None:
         a.setflags(write=False)
     return a

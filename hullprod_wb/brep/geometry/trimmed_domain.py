@@ -201,8 +201,8 @@ class TrimmedDomain:
         loop gaps); None when a p-curve's conversion fails its check (from_face then
         evaluates it through OpenCascade). Faces whose p-curve records are equal share one
         domain built from them (_closed_loops_of), each with its own face_parameter_range."""
-        key = pickle.dumps(rec.pcurves, protocol=4)
-        domain = _closed_loops_of(cls, key)
+        key = (cls, pickle.dumps(rec.pcurves, protocol=4))
+        domain = _closed_loops_of(key)
         if domain is None:
             curves = [curve_from_record(r) for r in rec.pcurves]
             if any(c is None for c in curves):
@@ -322,8 +322,7 @@ class TrimmedDomain:
         self.piece_turns = np.zeros((self.piece_curve.size, 2), bool)  # at u_lo, at u_hi
         for k, ci in enumerate(self.piece_curve):
             ends = np.array([self.piece_s_lo[k], self.piece_s_hi[k]])
-            s = self._s[ci]
-            d = self._d[ci] if np.array_equal(ends, s) else self.curves[ci].derivative(ends)
+            d = self._d[ci] if np.array_equal(ends, self._s[ci]) else self.curves[ci].derivative(ends)
             self.piece_turns[k] = np.abs(d[:, 0]) <= 1e-8 * np.maximum(np.hypot(d[:, 0], d[:, 1]),
                                                                        1e-300)
         self.turning_u = np.unique(np.concatenate((self.piece_u_lo[self.piece_turns[:, 0]],
@@ -448,15 +447,14 @@ RECORD_DOMAINS_KEPT = 256
 _CLOSED_LOOPS = {}
 
 
-def _closed_loops_of(cls, key):
-    """The domain built from the p-curve records whose pickle is key, when their loops
-    closed without the surface's help (a domain closed through a face's surface is that
-    face's own), else None; the most recently used first kept."""
+def _closed_loops_of(key):
+    """The domain of the class and p-curve records' pickle key, when their loops closed
+    without the surface's help (a domain closed through a face's surface is that face's
+    own), else None; the most recently used last in the dict (the first are let go)."""
     domain = _CLOSED_LOOPS.pop(key, None)
-    if domain is not None and type(domain) is cls:
+    if domain is not None:
         _CLOSED_LOOPS[key] = domain
-        return domain
-    return None
+    return domain
 
 
 @functools.lru_cache(maxsize=256)
