@@ -198,6 +198,30 @@ def test_a_claim_binds_other_runs_until_released(tmp_path):
     assert not rc.held_elsewhere(entry, other) and rc.take(entry, other)
 
 
+def test_claims_are_links_to_the_runs_owner_file_else_files_of_their_own(tmp_path, monkeypatch):
+    from hullprod_wb.core import result_claims as rc
+    store = ResultStore(tmp_path)
+    keys = [("%02x" % k) * 32 for k in range(3)]
+    me = rc.owner()
+    assert all(rc.take(store.path(k), me) for k in keys)
+    owner = rc.owner_file(store.path(keys[0]), me)
+    st = os.stat(owner)
+    assert open(owner).read() == me + "\n" and st.st_nlink == 1 + len(keys)
+    assert all(os.stat(store.path(k) + rc.SUFFIX).st_ino == st.st_ino for k in keys)  # no inode of their own
+    for k in keys:
+        rc.release(store.path(k), me)
+    assert os.stat(owner).st_nlink == 1 and not rc.held_elsewhere(store.path(keys[0]), rc.owner(os.getppid()))
+
+    def no_links(*a):
+        raise PermissionError(1, "Operation not permitted")
+    monkeypatch.setattr(os, "link", no_links)  # a file system without hard links
+    entry, other = store.path(keys[1]), rc.owner(os.getppid())
+    assert rc.take(entry, me) and os.stat(entry + rc.SUFFIX).st_ino != st.st_ino
+    assert not rc.take(entry, other) and rc.held_elsewhere(entry, other)
+    rc.release(entry, me)
+    assert rc.take(entry, other)
+
+
 def test_dead_claims_are_taken_over(tmp_path):
     import time
     from hullprod_wb.core import result_claims as rc

@@ -181,7 +181,8 @@ class ResultStore:
                         out.append((st.st_mtime, st.st_size, f.path))
                     elif ".tmp-" in f.name and now - st.st_mtime > STALE_TEMPORARY_S:
                         _remove(f.path)
-                    elif f.name.endswith(result_claims.SUFFIX) and now - st.st_mtime > result_claims.CLAIM_LIFETIME_S:
+                    elif (f.name.endswith(result_claims.SUFFIX) or f.name.endswith(result_claims.OWNER_SUFFIX)) \
+                            and now - st.st_mtime > result_claims.CLAIM_LIFETIME_S:
                         _remove(f.path)
         return out
 
