@@ -40,7 +40,7 @@ DEFAULT = ("kcs_full_closed_ohp.iges", "fcship_half_wavebem.iges")
 #: The pole's step, as a fraction of the changed face's bounding-box diagonal.
 STEP = 1e-3
 #: Cold runs without and with an empty store, alternating (medians compared).
-COLD_PAIRS = 3
+COLD_PAIRS = 5
 
 
 def changed_face(faces):
