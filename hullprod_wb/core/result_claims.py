@@ -139,32 +139,38 @@ def take(entry_path, me):
     path = entry_path + SUFFIX
     for _ in range(2):
         made = _linked(path, entry_path, me)
+        if made is None:  # no link here: a file of its own
+            made = _created(path, me)
+        if made is None:
+            return True  # no claim can be written here: no coordination, the run makes it
         if made:
             return True
+        seen = _read(path)  # a claim is there
+        if seen is None:
+            continue  # released meanwhile: try again
+        if seen[0] == me:
+            return True
+        if is_live(*seen):
+            return False
         try:
-            if made is None:
-                os.makedirs(os.path.dirname(path), mode=0o700, exist_ok=True)
-                fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
-            else:
-                raise FileExistsError(path)
-        except FileExistsError:
-            seen = _read(path)
-            if seen is None:
-                continue  # released meanwhile: try again
-            if seen[0] == me:
-                return True
-            if is_live(*seen):
-                return False
-            try:
-                os.unlink(path)  # a dead claim
-            except OSError:
-                pass
-            continue
+            os.unlink(path)  # a dead claim
         except OSError:
-            return True  # no claim can be written here: no coordination, the run makes it
-        with os.fdopen(fd, "w", encoding="ascii") as fh:
-            fh.write(me + "\n")
-        return True
+            pass
+    return True
+
+
+def _created(path, me):
+    """Create the claim path as a file of its own holding me (exclusively): True when made,
+    False when a claim is there already, None when none can be written here."""
+    try:
+        os.makedirs(os.path.dirname(path), mode=0o700, exist_ok=True)
+        fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+    except FileExistsError:
+        return False
+    except OSError:
+        return None
+    with os.fdopen(fd, "w", encoding="ascii") as fh:
+        fh.write(me + "\n")
     return True
 
 
