@@ -32,6 +32,22 @@ def test_entries_round_trip_and_count(tmp_path):
     assert oct(os.stat(os.path.dirname(s.path(KEY))).st_mode & 0o777) == oct(0o700)
 
 
+def test_a_shard_folder_is_made_once_and_again_when_it_was_removed(tmp_path, monkeypatch):
+    import shutil
+    s = ResultStore(tmp_path / "store")
+    made = []
+    real = os.makedirs
+    monkeypatch.setattr(result_store.os, "makedirs", lambda *a, **k: (made.append(a[0]), real(*a, **k))[1])
+    same_shard = [KEY[:2] + "%062x" % i for i in range(3)]
+    for k in same_shard:
+        assert s.put(k, {"k": k})
+    shard = os.path.dirname(s.path(KEY))
+    assert made.count(shard) == 1
+    shutil.rmtree(shard)  # a user removed it meanwhile
+    assert s.put(same_shard[0], {"k": "again"}) and s.get(same_shard[0]) == {"k": "again"}
+    assert made.count(shard) == 2 and s.writable and not s.counts.write_errors
+
+
 @pytest.mark.parametrize("damage", ["truncate", "flip", "other_key", "empty", "garbage"])
 def test_a_damaged_entry_is_ignored_and_removed(tmp_path, damage):
     s = ResultStore(tmp_path)

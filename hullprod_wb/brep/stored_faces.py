@@ -42,7 +42,7 @@ def stored_or_assessed(run, todo, cost, while_waiting=None, beside=False):
             return AWAITED
         return run.face_work(todo[missed[m]])
 
-    awaited = []
+    awaited, released = [], set()
 
     def done(m, f):  # stored as it comes, while the other faces are integrated
         k = missed[m]
@@ -54,16 +54,17 @@ def stored_or_assessed(run, todo, cost, while_waiting=None, beside=False):
                 if isinstance(f, FaceAssessment):
                     store.put(keys[k].free if keys[k].free and f.fits(keys[k].budget) else keys[k].exact, f)
                 store.release(keys[k].claim)
+                released.add(k)
         run.finished(todo[k], f)
 
     try:
         got = map_faces(work, len(missed), run.n_jobs, cost=[cost[todo[k]] for k in missed],
                         labels=["Face%d" % faces[todo[k]][0] for k in missed], on_done=done,
                         while_waiting=while_waiting, beside=beside)
-    finally:
+    finally:  # the claims of faces not stored (awaited, failed or interrupted)
         with run.timed("store_s"):
             for k in missed:
-                if keys[k] is not None:
+                if keys[k] is not None and k not in released:
                     store.release(keys[k].claim)
     for k, f in zip(missed, got):
         if not isinstance(f, str):

@@ -68,6 +68,7 @@ class ResultStore:
         self.counts = StoreCounts()
         self.writable = True
         self.owner = result_claims.owner()
+        self._shards = set()  # shard folders this run has made or found
 
     def path(self, key):
         return os.path.join(self.folder, key[:2], key + ".entry")
@@ -113,8 +114,7 @@ class ResultStore:
         path = self.path(key)
         tmp = "%s.tmp-%d-%d" % (path, os.getpid(), time.monotonic_ns())
         try:
-            os.makedirs(os.path.dirname(path), mode=0o700, exist_ok=True)
-            with open(tmp, "wb") as fh:
+            with self._created(tmp) as fh:
                 fh.write(data)
             os.replace(tmp, path)
         except OSError as exc:
@@ -125,6 +125,19 @@ class ResultStore:
         self.counts.written += 1
         self.counts.bytes_written += len(data)
         return True
+
+    def _created(self, tmp):
+        """tmp opened for writing, its shard folder made first when this run has not made
+        or found it yet (or it was removed since)."""
+        shard = os.path.dirname(tmp)
+        if shard not in self._shards:
+            os.makedirs(shard, mode=0o700, exist_ok=True)
+            self._shards.add(shard)
+        try:
+            return open(tmp, "wb")
+        except FileNotFoundError:
+            os.makedirs(shard, mode=0o700, exist_ok=True)
+            return open(tmp, "wb")
 
     def made(self, key, make):
         """The result under key, else make()'s, stored under key (key None: make()'s, not
