@@ -1,9 +1,13 @@
 """Benchmark of the BRep path against the number of faces: a real hull's faces split into
 about 100, 1,000 and 10,000 B-spline pieces of the same shape (bench/split_hull.py), each run
-through the whole command `./hullprod analyze FILE --json --no-fields --lref L`.
+through the whole command at default settings, `./hullprod analyze FILE --json --lref L
+--cache DIR` (the distributed fields on, and the faces' store on in a new empty folder a run:
+cold, every face integrated and stored, as a first run on a new hull is).
 
     /usr/bin/python3 bench/brep_scale.py [--sizes 100,1000,10000] [--source FILE] [--jobs N]
-        [--timeout S] [--keep DIR]
+        [--timeout S] [--keep DIR] [--no-fields] [--no-cache]
+
+--no-fields and --no-cache are passed to the command (no fields; no store).
 
 The source is ../shared/hulls/brep/kvlcc2_half_overture.igs (14 trimmed B-spline faces) when
 present, else the built-in half-Wigley Bezier patch; it and every split are read and written
@@ -31,9 +35,6 @@ import subprocess
 import sys
 import tempfile
 import time
-
-# cold runs: every face integrated, none taken from a store of faces (core.result_store)
-os.environ["HULLPROD_FACE_CACHE"] = "off"
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 KVLCC2 = os.path.normpath(os.path.join(ROOT, "..", "shared", "hulls", "brep", "kvlcc2_half_overture.igs"))
@@ -86,10 +87,13 @@ def write_file(source, folder, size):
     return json.loads(p.stdout.strip().splitlines()[-1])
 
 
-def run(path, lref, jobs, timeout, folder):
-    """One whole command in a fresh wrapper: a dict of the figures, or with 'error'."""
+def run(path, lref, jobs, timeout, folder, options=()):
+    """One whole command in a fresh wrapper: a dict of the figures, or with 'error'. Without
+    --no-cache in options, the faces' store is a new folder in folder."""
     out, err = os.path.join(folder, "out.json"), os.path.join(folder, "err.txt")
-    cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--no-fields"]
+    cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json"] + list(options)
+    if "--no-cache" not in options:
+        cmd += ["--cache", tempfile.mkdtemp(prefix="store-", dir=folder)]
     cmd += ["--lref", repr(lref)] if lref else []
     cmd += ["--jobs", str(jobs)] if jobs else []
     t = time.perf_counter()
@@ -138,8 +142,11 @@ def main():
     ap.add_argument("--jobs", type=int, help="passed to the command (default: its own)")
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds a run (default 1800)")
     ap.add_argument("--keep", help="write the .brep files here and keep them")
+    ap.add_argument("--no-fields", action="store_true", help="passed to the command: no distributed fields")
+    ap.add_argument("--no-cache", action="store_true", help="passed to the command: no faces' store")
     ap.add_argument("--write", nargs=3, help=argparse.SUPPRESS)
     a = ap.parse_args()
+    options = [o for o, on in (("--no-fields", a.no_fields), ("--no-cache", a.no_cache)) if on]
     if a.write:
         return _write(a.write[0], a.write[1], int(a.write[2]))
     source = KVLCC2 if os.path.exists(KVLCC2) and not a.source else a.source or ""
@@ -147,8 +154,9 @@ def main():
     sizes = sorted(int(float(s)) for s in a.sizes.split(","))
     folder = a.keep or tempfile.mkdtemp(prefix="hullprod-scale-")
     os.makedirs(folder, exist_ok=True)
-    print("source: %s; load average %.2f (%d CPUs, shared)" % (source or "built-in half-Wigley Bezier patch",
-                                                               os.getloadavg()[0], os.cpu_count()))
+    print("source: %s; load average %.2f (%d CPUs, shared); command options: %s"
+          % (source or "built-in half-Wigley Bezier patch", os.getloadavg()[0], os.cpu_count(),
+             " ".join(options) or "defaults (fields on, a new empty store a run)"))
     print("%7s %9s %8s %8s %8s %11s %22s  %s" % ("faces", "split [s]", "wall [s]", "CPU [s]", "peak MB", "points",
                                               "I_D +- error", "not VALID / exponent"))
     rows, lref = [], None
@@ -157,7 +165,7 @@ def main():
             log("%s: writing" % ("source" if not size else "about %d faces" % size))
             w = write_file(source, folder, size)
             log("%d faces (%s) in %.1f s; analysing" % (w["faces"], w["how"], w["seconds"]))
-            r = run(w["path"], lref, a.jobs, a.timeout, folder)
+            r = run(w["path"], lref, a.jobs, a.timeout, folder, options)
             r.update(written=w)
             if "error" in r:
                 print("%7d %9.1f %8.1f  %s" % (w["faces"], w["seconds"], r["wall"], r["error"]), flush=True)
