@@ -7,7 +7,8 @@ box). The hull's faces are written as base.brep and as variant_K.brep (the pole 
 K steps of 1e-3 of the face's box diagonal), and the command runs side by side, in one run
 of this script:
   - the first variant with --no-cache and with an empty store (a new folder each time),
-    alternating, COLD_PAIRS times each (medians: what the store costs on misses; and the main
+    alternating, COLD_PAIRS times each (medians of the wall and of the CPU seconds of the
+    command and the processes it waited for: what the store costs on misses; and the main
     process's own seconds in the store on the empty-store runs, timings.store_s);
   - the first variant after the base filled the store (one face changed: warm), its signature
     against the cold run's;
@@ -24,6 +25,7 @@ Default hulls: the shared closed KCS (125 faces) and fcship (449 faces).
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -104,15 +106,21 @@ def write_variants(path, folder, n):
     return k + 1, area(faces[k]) / sum(area(f) for f in faces)
 
 
-def run(path, store):
-    """(wall seconds, JSON document) of the command on path; store: a folder, or None (--no-cache)."""
+def run(path, store, cpu=None):
+    """(wall seconds, JSON document) of the command on path; store: a folder, or None
+    (--no-cache). cpu: a list to which the run's CPU seconds are appended (user and system, of
+    the command and the processes it waited for: its reading process and workers)."""
     cmd = [os.path.join(ROOT, "hullprod"), "analyze", path, "--json", "--quiet"]
     cmd += ["--cache", store] if store else ["--no-cache"]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if p.returncode != 0:
         raise SystemExit("%s: exit %d: %s" % (" ".join(cmd), p.returncode, p.stderr.strip()[-400:]))
+    if cpu is not None:
+        cpu.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
     return wall, json.loads(p.stdout)
 
 
@@ -133,13 +141,13 @@ def bench(path, n, work, scheduler):
     number, share = write_variants(path, work, n)
     variant = [os.path.join(work, "variant_%d.brep" % v) for v in range(1, n + 1)]
     store = lambda name: os.path.join(work, "store-" + name)  # noqa: E731
-    offs, empties, own = [], [], []
+    offs, empties, own, cpu_off, cpu_empty = [], [], [], [], []
     for k in range(COLD_PAIRS):  # alternating: the machine's drift falls on both alike
-        t, cold = run(variant[0], None)
+        t, cold = run(variant[0], None, cpu_off)
         offs.append(t)
         # a folder of its own: entries written just after the last run's were removed would
         # wait on the file system (ext4 allocates no recently freed inode), as a first run does not
-        t, doc = run(variant[0], store("empty-%d" % k))
+        t, doc = run(variant[0], store("empty-%d" % k), cpu_empty)
         empties.append(t)
         own.append(doc["timings"]["store_s"])
     t_base, _ = run(os.path.join(work, "base.brep"), store("warm"))
@@ -151,7 +159,8 @@ def bench(path, n, work, scheduler):
     c = warm["provenance"]["cache"]
     return {"hull": os.path.basename(path), "faces": len(cold["provenance"]["faces"]), "changed": number,
             "share": share, "cold": statistics.median(offs), "cold_empty_store": statistics.median(empties),
-            "store_s": statistics.median(own),
+            "store_s": statistics.median(own), "cpu": statistics.median(cpu_off),
+            "cpu_empty_store": statistics.median(cpu_empty),
             "base": t_base, "warm": t_warm, "hits": c["hits"], "misses": c["misses"], "identical": same,
             "family": sum(family), "batch": local, "dask": dask, "cold_median": statistics.median(offs), "n": n}
 
@@ -179,13 +188,15 @@ def main():
         if cluster is not None:
             cluster.close()
     print()
-    print("| hull | faces | cold --no-cache [s] | cold, empty store [s] | one face changed, warm [s] | "
-          "warm / cold | same signature | family of N: commands / cold | batch / cold | Dask / cold |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| hull | faces | cold --no-cache [s] | cold, empty store [s] | CPU cold / empty store [s] | "
+          "one face changed, warm [s] | warm / cold | same signature | family of N: commands / cold | batch / cold | "
+          "Dask / cold |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s | %d | %.2f | %.2f (%+.1f %%; store's own work %.3f s) | %.2f | %.2f | %s | %.2f (N = %d) | %.2f | %s |"
+        print("| %s | %d | %.2f | %.2f (%+.1f %%; store's own work %.3f s) | %.2f / %.2f (%+.1f %%) | %.2f | %.2f | %s "
+              "| %.2f (N = %d) | %.2f | %s |"
               % (r["hull"], r["faces"], r["cold"], r["cold_empty_store"], 100 * (r["cold_empty_store"] / r["cold"] - 1),
-                 r["store_s"],
+                 r["store_s"], r["cpu"], r["cpu_empty_store"], 100 * (r["cpu_empty_store"] / r["cpu"] - 1),
                  r["warm"], r["warm"] / r["cold"], "yes" if r["identical"] else "NO", r["family"] / r["cold_median"],
                  r["n"], r["batch"] / r["cold_median"],
                  "%.2f" % (r["dask"] / r["cold_median"]) if r["dask"] else "-"))
