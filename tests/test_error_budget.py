@@ -45,6 +45,48 @@ def test_point_singularity_is_resolved_deeper_than_the_paper_depth_with_few_poin
     assert not p.recheck.converged["int_abs_K"]
 
 
+def layer_field(delta, slope, a=0.5, c=1.0, v0=0.3):
+    """The graph z = a u^2 + c delta log cosh(xi), xi = (v - v0 - slope u) / delta: a layer of
+    width delta along the line v = v0 + slope u, where K = 2 a c sech^2(xi) / (delta W^2),
+    W = 1 + z_u^2 + z_v^2 (the Monge patch's K = (z_uu z_vv - z_uv^2) / W^2, J = sqrt W)."""
+    def f(u, v):
+        u, v = np.asarray(u, float), np.asarray(v, float)
+        xi = (v - v0 - slope * u) / delta
+        th, sech2 = np.tanh(xi), np.cosh(np.minimum(np.abs(xi), 300.0)) ** -2
+        zu, zv = 2 * a * u - c * slope * th, c * th
+        zuu, zvv, zuv = 2 * a + c * slope ** 2 * sech2 / delta, c * sech2 / delta, -c * slope * sech2 / delta
+        W = 1 + zu * zu + zv * zv
+        H = ((1 + zv * zv) * zuu - 2 * zu * zv * zuv + (1 + zu * zu) * zvv) / (2 * W ** 1.5)
+        return {"J": np.sqrt(W), "K": (zuu * zvv - zuv * zuv) / W ** 2, "H": H,
+                "regular": np.ones(u.shape, bool)}
+    return f
+
+
+def layer_abs_k(delta, slope, a=0.5, c=1.0, v0=0.3):
+    """int |K| J du dv of layer_field over the unit square: with tau = tanh(xi) (dv = delta
+    dxi, dtau = sech^2 xi dxi) the inner integral is int 2 a c / (1 + (2 a u - c slope tau)^2
+    + c^2 tau^2)^(3/2) dtau between tanh(xi) at v = 0 and v = 1: smooth, so Gauss-Legendre
+    gives it to rounding."""
+    x, w = np.polynomial.legendre.leggauss(200)
+    u = 0.5 * (x + 1)
+    lo, hi = np.tanh((0.0 - v0 - slope * u) / delta), np.tanh((1.0 - v0 - slope * u) / delta)
+    tau = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * x[None, :]
+    g = 2 * a * c / (1 + (2 * a * u[:, None] - c * slope * tau) ** 2 + (c * tau) ** 2) ** 1.5
+    return float(np.sum(0.5 * w[:, None] * 0.5 * (hi - lo)[:, None] * w[None, :] * g))
+
+
+@pytest.mark.parametrize("delta, slope", [(3e-4, 0.2), (1e-4, 0.2), (1e-4, 0.05), (1e-3, 0.0)])
+def test_a_thin_layer_along_a_cell_edge_is_within_the_estimate(delta, slope):
+    # the layer v = 0.3 + slope u runs just inside the dyadic cell edges near v = 0.3 over
+    # long stretches: cells on one side refine deep into it, while the units on the other
+    # side, whose nodes all miss it, agree with their children; the balance reopens them
+    exact = layer_abs_k(delta, slope)
+    r = integrate(SQUARE, layer_field(delta, slope), 0.05, 0.05, rtol=1e-4, depth_limit=40,
+                  point_budget=20_000_000)
+    assert r.converged["int_abs_K"] and not r.budget_spent
+    assert abs(r.values["int_abs_K"] - exact) <= r.errors["int_abs_K"]
+
+
 def test_point_budget_stops_the_refinement_and_says_so():
     f = corner_field(1.0)
     r = integrate(SQUARE, f, TAU_H, TAU_K, rtol=1e-12, depth_limit=30, point_budget=20_000)

@@ -1,14 +1,14 @@
 """Cells of the quadtree over the boundary-fitted patches: the first cells (the patches,
 halved in both directions up to MIN_INITIAL_CELLS of them), their children, the tensor
 Gauss nodes of a cell mapped to (u, v), the field at them (on tensor grids where the cell
-lies between constant bounds), the prefetch of the first two levels, and the greedy
-acceptance of cells against an error budget."""
+lies between constant bounds), the cells that may meet a class boundary, the prefetch of
+the first two levels, and the greedy acceptance of cells against an error budget."""
 import numpy as np
 
 from ...core.errors import InputError
 from .gauss_rules import gauss_rule
 from .patches import Patches
-from .settings import ACCEPT_FRACTION, AREA, CLASS_AREAS, MIN_INITIAL_CELLS, PREFETCH_CELLS
+from .settings import ACCEPT_FRACTION, AREA, CLASS_AREAS, MIN_INITIAL_CELLS, PREFETCH_CELLS, STRADDLE_MARGIN
 
 
 #: The arrays of a CellSet: the cells' boxes, then those known once evaluated or accepted.
@@ -205,6 +205,36 @@ def child_cells(a):
                    np.stack((sm, a.s1, sm, a.s1), 1).ravel(),
                    np.stack((a.t0, a.t0, tm, tm), 1).ravel(),
                    np.stack((tm, tm, a.t1, a.t1), 1).ravel())
+
+
+def mixed_cells(cls, K, H, reg, tau_H, tau_K):
+    """(n,) bool: cells (n, o, o samples of class cls, K, H, regular) that may meet a class
+    boundary (thresholds tau_H, tau_K) or K = 0: their samples' classes differ, or the sampled
+    range of K (of H where |K| may be below tau_K), widened by STRADDLE_MARGIN of itself,
+    contains a threshold, or K changes sign in it."""
+    nc = cls.shape[0]
+    cls, reg = cls.reshape(nc, -1), reg.reshape(nc, -1)
+    anyreg = reg.any(1)
+    out = np.where(reg, cls, 99).min(1) != np.where(reg, cls, -99).max(1)
+
+    def widened(A):
+        A = A.reshape(nc, -1)
+        lo = np.where(reg, A, np.inf).min(1)
+        hi = np.where(reg, A, -np.inf).max(1)
+        m = STRADDLE_MARGIN * np.where(anyreg, hi - lo, 0.0)
+        return lo - m, hi + m
+
+    def meets(lo, hi, *levels):
+        return np.any([(lo <= x) & (hi >= x) for x in levels], 0)
+
+    klo, khi = widened(K)
+    hlo, hhi = widened(H)
+    tk, th = tau_K, tau_H
+    # K = 0 only matters where K changes sign (a kink of |K|); K identically zero (planes,
+    # cylinders, cones) has none
+    out |= meets(klo, khi, -tk, tk) | ((klo < 0.0) & (khi > 0.0)) \
+        | (klo <= tk) & (khi >= -tk) & meets(hlo, hhi, -th, th)
+    return anyreg & out
 
 
 class NodePrefetch:

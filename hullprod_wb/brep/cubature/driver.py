@@ -39,14 +39,15 @@ from ...core.thresholds import check_positive, classify
 from .cell_interpolant import grid_matrices_of_order
 from .gauss_rules import gauss_rule
 from .patches import Patches, check_domain
-from .cells import (CellSet, CountedField, child_cells, greedy_accept, patch_cells, share_area_error, cell_nodes,
+from .balance import unbalanced
+from .cells import (CellSet, CountedField, mixed_cells, child_cells, greedy_accept, patch_cells, share_area_error, cell_nodes,
                     tensor_cells, values_at_nodes)
 from .lines import integrate_lines, interpolants, turn_cells
 from .pieces import LineSetting
 from .result import QuadratureResult
-from .settings import (AREA, K_INTEGRALS, LINE_K, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS,
+from .settings import (ABS_K, AREA, K_INTEGRALS, LINE_K, LINE_Q, MAX_NONREGULAR, NQ, N_DEEPEST, N_PEAKS,
                        LINE_CHUNKS, LINE_MARGIN, N_SMOOTH, OWN_SAFETY,
-                       QUANTITIES, STRADDLE_MARGIN, TREE_SAFETY, ZERO_CHARGE_PARTS, ZERO_CHARGE_SHARE,
+                       QUANTITIES, TREE_SAFETY, ZERO_CHARGE_PARTS, ZERO_CHARGE_SHARE,
                        ZERO_SCALE)
 
 
@@ -60,8 +61,10 @@ class Integration:
 
     def __init__(self, domain, field, tau_H, tau_K, order, rtol, class_max_depth, u_breaks,
                  v_breaks, progress, patch_range=None, prefetch=None, max_depth=None, reference=None,
-                 lines=True, point_budget=None):
+                 lines=True, point_budget=None, balance=False):
         self.prefetch = prefetch
+        self.balance = bool(balance)  # the 2:1 balance on jumps (balance.unbalanced)
+        self.n_reopened = 0
         self.f = CountedField(field)
         self.tau_H, self.tau_K = tau_H, tau_K
         self.order, self.rtol = order, rtol
@@ -90,6 +93,9 @@ class Integration:
         self.accepted = []  # CellSets of accepted units, one per level
         self.err_acc = np.zeros(NQ)
         self.depth = level
+        # the first split is of quadrants, with or without a prefetch of its children, and
+        # with no balance: the same cells either way
+        self.first_level = level
         self.pending = None  # units left unaccepted at the last level
         self.budget_spent = False  # refinement stopped by the point budget (refine_to)
         self.point_budget = None if point_budget is None else int(point_budget)
@@ -169,34 +175,8 @@ class Integration:
         k = KJ.argmax(1)
         ar = np.arange(nc)
         peak = np.stack((U.reshape(nc, -1)[ar, k], V.reshape(nc, -1)[ar, k], KJ[ar, k]), 1)
-        return c.with_(Q=Q, err_e=err_e, mixed=self._mixed(cls, K, H, reg), peak=peak,
+        return c.with_(Q=Q, err_e=err_e, mixed=mixed_cells(cls, K, H, reg, self.tau_H, self.tau_K), peak=peak,
                        pmeas=W.sum((1, 2)), sJ=J, sK=K, sH=H, sreg=reg)
-
-    def _mixed(self, cls, K, H, reg):
-        """(n,) bool: cells (n, o, o samples) that may meet a class boundary or K = 0."""
-        nc = cls.shape[0]
-        cls, reg = cls.reshape(nc, -1), reg.reshape(nc, -1)
-        anyreg = reg.any(1)
-        out = np.where(reg, cls, 99).min(1) != np.where(reg, cls, -99).max(1)
-
-        def widened(A):
-            A = A.reshape(nc, -1)
-            lo = np.where(reg, A, np.inf).min(1)
-            hi = np.where(reg, A, -np.inf).max(1)
-            m = STRADDLE_MARGIN * np.where(anyreg, hi - lo, 0.0)
-            return lo - m, hi + m
-
-        def meets(lo, hi, *levels):
-            return np.any([(lo <= x) & (hi >= x) for x in levels], 0)
-
-        klo, khi = widened(K)
-        hlo, hhi = widened(H)
-        tk, th = self.tau_K, self.tau_H
-        # K = 0 only matters where K changes sign (a kink of |K|); K identically zero (planes,
-        # cylinders, cones) has none
-        out |= meets(klo, khi, -tk, tk) | ((klo < 0.0) & (khi > 0.0)) \
-            | (klo <= tk) & (khi >= -tk) & meets(hlo, hhi, -th, th)
-        return anyreg & out
 
     def _tolerance(self, Q):
         """tol_q = rtol max(|Q_q|, ZERO_SCALE scale_q, reference_q) for all quantities, (9,)."""
@@ -226,13 +206,20 @@ class Integration:
             if na == 0:
                 self.pending = None
                 break
+            pre = self._prefetched(1, a.row)
+            reopen = self._unbalanced(a) if pre is None and self.depth > self.first_level else None
+            nr = 0 if reopen is None else int(sum(r.sum() for r in reopen))
+            # (a reopened unit: its four children now, their sixteen at the next level)
             if point_budget is not None and self.pending is not None \
-                    and not self._within_budget(self.f.n_points + 4 * na * per_cell):
+                    and not self._within_budget(self.f.n_points + (4 * na + 20 * nr) * per_cell):
                 del self.accepted[before[0]:]
                 self.err_acc, self.active = before[1], before[2]
                 self.budget_spent = True
                 break
-            ch = self.evaluate(child_cells(a), self._prefetched(1, a.row))
+            if nr:
+                a = self._reopened(a, reopen)
+                na = a.size
+            ch = self.evaluate(child_cells(a), pre)
             self.depth += 1
             # the last level: the depth limit, or the point budget would not hold the next
             # level's children (at most four a cell refined here)
@@ -254,6 +241,26 @@ class Integration:
                                   else self.f.n_points / float(point_budget)),
                               "quadrature depth %d: %d of %d cells refined"
                               % (self.depth, int((~accept).sum()), na))
+
+    def _unbalanced(self, a):
+        """balance.unbalanced of the active cells a against the accepted units (None when
+        the balance is off or finds none)."""
+        if not self.balance or not self.accepted:
+            return None
+        Qtot = sum((p.Q.sum(0) for p in self.accepted), a.Q.sum(0))
+        return unbalanced(a, self.accepted, self._tolerance(Qtot)[ABS_K])
+
+    def _reopened(self, a, reopen):
+        """The active cells a joined by the children (evaluated here) of the accepted units
+        reopen masks, those units and their errors taken out of the accepted ones."""
+        gone = CellSet.concat([p.take(m) for p, m in zip(self.accepted, reopen)])
+        self.accepted = [p.take(~m) for p, m in zip(self.accepted, reopen)]
+        self.err_acc = self.err_acc - gone.err.sum(0)
+        self.n_reopened += gone.size
+        ch = self.evaluate(child_cells(gone.boxes()))
+        names = ("Q", "err_e", "mixed", "peak", "pmeas", "sJ", "sK", "sH", "sreg")
+        return CellSet.concat([a.boxes().with_(**{k: getattr(a, k) for k in names}),
+                               ch.boxes().with_(**{k: getattr(ch, k) for k in names})])
 
     def _within_budget(self, points):
         """Whether points (the field points a step would reach) fit the point budget; the
@@ -568,7 +575,7 @@ def integrate(domain, field, tau_H, tau_K, order=5, rtol=1e-4, max_depth=5, u_br
     start = time.perf_counter()
     it = Integration(domain, field, tau_H, tau_K, int(order), float(rtol), int(class_max_depth),
                      u_breaks, v_breaks, progress, patch_range, prefetch, int(max_depth), reference, lines,
-                     point_budget if depth_limit is not None else None)
+                     point_budget if depth_limit is not None else None, balance=depth_limit is not None)
     if depth_limit is not None:
         it.refine_to(int(depth_limit))
         result = it.snapshot(int(depth_limit), start)

@@ -16,6 +16,7 @@ NQ = len(QUANTITIES)
 #: Positions in the value arrays: the area, the K integrals (int |K|, int K+, int K-) and
 #: the class areas (flat, single, elliptic, saddle; in a block of them, CLASS_FLAT ...).
 AREA = QUANTITIES.index("A")
+ABS_K = QUANTITIES.index("int_abs_K")
 K_INTEGRALS = slice(QUANTITIES.index("int_abs_K"), QUANTITIES.index("int_K_minus") + 1)
 CLASS_AREAS = slice(QUANTITIES.index("A_flat"), NQ)
 CLASS_FLAT, CLASS_SINGLE, CLASS_ELLIPTIC, CLASS_SADDLE = range(4)
@@ -145,6 +146,13 @@ GROUP_MIN_PATCHES = 256
 #: ever accepted: on a face of one to a few patches the first levels cost such passes for a
 #: handful of cells.
 MIN_INITIAL_CELLS = 16
+
+#: The 2:1 balance on jumps (balance.unbalanced): an accepted unit is refined again beside a
+#: cell four or more times smaller whose samples next to the shared edge exceed BALANCE_JUMP
+#: times the largest |K| J the unit sampled, where that cell's |K| integral is at least
+#: BALANCE_SHARE of the |K| integral's tolerance.
+BALANCE_JUMP = 16.0
+BALANCE_SHARE = 1e-3
 
 
 #: Cells a step of NodePrefetch evaluates (a few milliseconds).
