@@ -248,7 +248,7 @@ class Integration:
         if not self.balance or not self.accepted:
             return None
         Qtot = sum((p.Q.sum(0) for p in self.accepted), a.Q.sum(0))
-        return unbalanced(a, self.accepted, self._tolerance(Qtot)[ABS_K])
+        return unbalanced(self.patches, a, self.accepted, self._tolerance(Qtot)[ABS_K])
 
     def _reopened(self, a, reopen):
         """The active cells a joined by the children (evaluated here) of the accepted units
