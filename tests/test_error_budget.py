@@ -90,6 +90,18 @@ def test_a_thin_layer_along_a_cell_edge_is_within_the_estimate(delta, slope, v_b
     assert abs(r.values["int_abs_K"] - exact) <= r.errors["int_abs_K"]
 
 
+def test_a_layer_costs_the_same_along_either_parameter():
+    # the same surface with u and v exchanged: the cells on lines of the field turn their
+    # lines across the layer as the cells on interpolants do (lines.turn_cells), so neither
+    # direction runs its lines along it
+    f = layer_field(3e-4, 0.2)
+    r = integrate(SQUARE, f, 0.05, 0.05, rtol=1e-4, depth_limit=40, point_budget=20_000_000)
+    s = integrate(SQUARE, lambda u, v: f(v, u), 0.05, 0.05, rtol=1e-4, depth_limit=40, point_budget=20_000_000)
+    assert s.n_points == r.n_points
+    assert s.values["int_abs_K"] == pytest.approx(r.values["int_abs_K"], rel=1e-12)
+    assert abs(s.values["int_abs_K"] - layer_abs_k(3e-4, 0.2)) <= s.errors["int_abs_K"]
+
+
 def test_point_budget_stops_the_refinement_and_says_so():
     f = corner_field(1.0)
     r = integrate(SQUARE, f, TAU_H, TAU_K, rtol=1e-12, depth_limit=30, point_budget=20_000)

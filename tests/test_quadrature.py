@@ -698,8 +698,8 @@ def test_turned_lines_follow_level_curves_along_t():
     """The same field as test_class_area_bounded_by_a_curved_threshold_line with u and v
     exchanged: its level curves run along t. A mixed cell on its interpolant in this affine
     patch takes its lines along sigma (lines.turn_cells: sigma and t exchanged in its
-    box and its interpolant, the constant strip width and du/dsigma kept); without an
-    interpolant it keeps them. On a cell that the curves cross from one t edge to the
+    box and its interpolant, the constant strip width and du/dsigma kept), and so does a
+    cell on lines of the field (evaluated with the axes exchanged back). On a cell that the curves cross from one t edge to the
     other, the turned lines meet no edge crossing (the lines not turned: four, each a cut)
     and give its class areas to 1e-14 within error estimates of 2e-9, where lines not turned,
     nearly parallel to the curves, are 1e-6 off and do not fit the cell's budget. The whole
@@ -717,8 +717,8 @@ def test_turned_lines_follow_level_curves_along_t():
     for a, b in (("s0", "t0"), ("s1", "t1"), ("t0", "s0"), ("t1", "s1")):
         assert getattr(turned.boxes, a) == getattr(cell, b), a
     assert np.array_equal(turned.interp.C, np.swapaxes(interp.C, 2, 3))
-    kept = cub_lines.turn_cells(it.ls, cell, dataclasses.replace(interp, use=np.zeros(1, bool)))
-    assert np.isnan(kept.width).all() and kept.boxes.s0 == cell.s0 and kept.boxes.t0 == cell.t0
+    on_field = cub_lines.turn_cells(it.ls, cell, dataclasses.replace(interp, use=np.zeros(1, bool)))
+    assert on_field.width == pytest.approx([1.0]) and on_field.boxes.s0 == cell.t0
     plain = MixedCells(cell.boxes(), np.full(1, np.nan), np.full(1, np.nan), interp)
 
     def above(c):  # int over the cell where u > g(v) + c of J, g = 0.3 + 0.1 sin(2 pi v)
@@ -732,6 +732,10 @@ def test_turned_lines_follow_level_curves_along_t():
     assert cub_cuts.edge_cuts(it.ls, turned)[1].size == 0 and cub_cuts.edge_cuts(it.ls, plain)[1].size == 4
     val, err, fits, _ = cub_lines.integrate_lines(it.ls, turned, budget)
     assert np.abs(val[0, 3:] - exact).max() <= 1e-14 and err[0, 3:].max() <= 2e-9 and fits.all()
+    # the turned lines of the field: the field evaluated with the axes exchanged back
+    assert cub_cuts.edge_cuts(it.ls, on_field)[1].size == 0
+    val, err, fits, _ = cub_lines.integrate_lines(it.ls, on_field, budget)
+    assert np.all(np.abs(val[0, 3:] - exact) <= err[0, 3:]) and err[0, 3:].max() <= 2e-9 and fits.all()
     val, err, fits, _ = cub_lines.integrate_lines(it.ls, plain, budget)
     assert np.abs(val[0, 3:] - exact).max() > 1e-7 and not fits.any()
     assert np.all(np.abs(val[0, 3:] - exact) <= err[0, 3:])

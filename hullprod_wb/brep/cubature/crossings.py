@@ -10,6 +10,19 @@ from .roots import solve_bracketed
 from .settings import CROSSING_RTOL, CROSSING_STEPS, DIP_FRACTION, LEVEL_ROW, N_LEVELS, ZS
 
 
+def field_at(ls, mc, cell, sig, t):
+    """The field (J, K, H, regular) at the patch coordinates (sig, t) (m,) of the cells cell
+    (m,) of the MixedCells mc, in their own axes: a turned cell (lines.turn_cells, in a
+    patch with u affine in sigma and constant bounds) has sigma and t exchanged."""
+    P = ls.patches
+    pid = mc.boxes.pid[cell]
+    turned = ~np.isnan(mc.width[cell])
+    s_, t_ = np.where(turned, t, sig), np.where(turned, sig, t)
+    u, _ = P.u_of_sigma(pid, s_)
+    lo, hi = P.bounds(pid, u)
+    return ls.field(u, lo + t_ * (hi - lo))
+
+
 def line_segments(ls, mc, cell, pid, sig):
     """SegmentField of the lines sigma = sig (L,) of patches pid (L,) in the cells cell
     (L,) of the MixedCells mc, and the lines' strip widths hi - lo (L,) (the constant of
@@ -17,8 +30,11 @@ def line_segments(ls, mc, cell, pid, sig):
     u, _ = ls.patches.u_of_sigma(pid, sig)
     lo, hi = ls.patches.bounds(pid, u)
     width = mc.turned(cell, hi - lo, "width")
-    evalf = SegmentField(mc.interp.C, mc.interp.use, mc.boxes, cell, sig, "t",
-                         lambda x, i: ls.field(u[i], lo[i] + x * width[i]))
+    if np.isnan(mc.width[cell]).all():
+        line = lambda x, i: ls.field(u[i], lo[i] + x * width[i])  # noqa: E731 (no cell turned)
+    else:
+        line = lambda x, i: field_at(ls, mc, cell[i], sig[i], x)  # noqa: E731
+    evalf = SegmentField(mc.interp.C, mc.interp.use, mc.boxes, cell, sig, "t", line)
     return evalf, width
 
 
@@ -36,10 +52,7 @@ def cell_field(ls, mc, cell, sig, t):
         J[i], K[i], H[i] = cell_values(interp.C, cells, cell[i], sig[i], t[i])
     i = np.nonzero(~use)[0]
     if i.size:
-        pid = cells.pid[cell[i]]
-        u, _ = ls.patches.u_of_sigma(pid, sig[i])
-        lo, hi = ls.patches.bounds(pid, u)
-        J[i], K[i], H[i], reg[i] = ls.field(u, lo + t[i] * (hi - lo))
+        J[i], K[i], H[i], reg[i] = field_at(ls, mc, cell[i], sig[i], t[i])
     return J, K, H, reg
 
 

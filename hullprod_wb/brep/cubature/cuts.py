@@ -14,7 +14,7 @@ from .cell_interpolant import (SegmentField, horner, interpolant_extremum, inter
                                local_coordinate, tangency_points, window_min_of)
 from .roots import solve_bracketed
 from .cells import row_sums
-from .crossings import cell_field, crossings
+from .crossings import cell_field, crossings, field_at
 from .pieces import inside_pieces, parabolic_min
 from .settings import (CLASS_ELLIPTIC, CLASS_FLAT, CLASS_SADDLE, CLASS_SINGLE, INSIDE, LEVEL_H, LEVEL_K, LEVEL_ROW,
                        LINE_CLASSES, TANGENT_RTOL, TANGENT_STEPS)
@@ -30,12 +30,8 @@ def edge_cuts(ls, mc):
     h = INSIDE * (cells.t1 - cells.t0)
     tE = np.concatenate((cells.t0 + h, cells.t1 - h))
 
-    pe = pid[E]
-
     def fallback(x, i):  # edge lines t = tE of the cells, sigma = x
-        u, _ = ls.patches.u_of_sigma(pe[i], x)
-        lo, hi = ls.patches.bounds(pe[i], u)
-        return ls.field(u, lo + tE[i] * (hi - lo))
+        return field_at(ls, mc, E[i], x, tE[i])
 
     evalf = SegmentField(mc.interp.C, mc.interp.use, cells, E, tE, "sigma", fallback)
     li, _, roots, _ = crossings(ls, evalf)

@@ -321,20 +321,22 @@ def piece_values(ls, mc, pc, counted=True):
 
 
 def turn_cells(ls, cells, interpolants):
-    """The mixed cells with their lines turned where that suits the level curves: a cell
-    on its interpolant, in a patch whose map to (u, v) is affine (linear in sigma, constant
-    strip bounds: the area element du/dsigma (hi - lo) is one constant), along which K
-    varies more in sigma than in t (the level curves run along t, so lines sigma = const
-    would meet them at small angles and cross the cell's t edges, each crossing a cut) is
-    given with sigma and t exchanged: the box, its interpolant's axes, and the constant
-    width and du/dsigma of the original (NaN for the others, see MixedCells.turned). The
-    line integrals of a cell do not depend on the direction of its lines. cells: CellSet
-    (its boxes used); interpolants: their Interpolants. Returns MixedCells."""
+    """The mixed cells with their lines turned where that suits the level curves: a cell in
+    a patch whose map to (u, v) is affine (linear in sigma, constant strip bounds: the area
+    element du/dsigma (hi - lo) is one constant), along which K varies more in sigma than in
+    t by its interpolant (the level curves run along t, so lines sigma = const would meet
+    them at small angles and cross the cell's t edges, each crossing a cut; a layer along t
+    would need many such lines across it) is given with sigma and t exchanged: the box, its
+    interpolant's axes, and the constant width and du/dsigma of the original (NaN for the
+    others, see MixedCells.turned). Lines of the field of a turned cell evaluate it with the
+    axes exchanged back (crossings.field_at). The line integrals of a cell do not depend on
+    the direction of its lines. cells: CellSet (its boxes used); interpolants: their
+    Interpolants (fitted also where the lines do not use them). Returns MixedCells."""
     n = cells.size
     P = ls.patches
     pid = cells.pid
     affine = (P.umap[pid] == 0) & (P.lo_piece[pid] < 0) & (P.hi_piece[pid] < 0)
-    cand = np.nonzero(interpolants.use & affine)[0]
+    cand = np.nonzero(affine & np.isfinite(interpolants.C[:, 1]).all((1, 2)))[0]
     turn = np.zeros(n, bool)
     if cand.size:
         # mean |dK| along each local axis from the K series: sum over the other axis of
