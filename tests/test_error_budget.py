@@ -75,17 +75,21 @@ def layer_abs_k(delta, slope, a=0.5, c=1.0, v0=0.3):
     return float(np.sum(0.5 * w[:, None] * 0.5 * (hi - lo)[:, None] * w[None, :] * g))
 
 
-@pytest.mark.parametrize("delta, slope, v_breaks", [(3e-4, 0.2, ()), (1e-4, 0.2, ()), (1e-4, 0.05, ()),
-                                                   (1e-3, 0.0, ()), (1e-4, 0.2, (0.3,))])
-def test_a_thin_layer_along_a_cell_edge_is_within_the_estimate(delta, slope, v_breaks):
+@pytest.mark.parametrize("delta, slope, breaks, exchanged", [
+    (3e-4, 0.2, (), False), (1e-4, 0.2, (), False), (1e-4, 0.05, (), False), (1e-3, 0.0, (), False),
+    (1e-4, 0.2, (0.3,), False), (1e-4, 0.2, (0.3,), True)])
+def test_a_thin_layer_along_a_cell_edge_is_within_the_estimate(delta, slope, breaks, exchanged):
     # the layer v = 0.3 + slope u runs just inside the dyadic cell edges near v = 0.3 over
     # long stretches: cells on one side refine deep into it, while the units on the other
     # side, whose nodes all miss it, agree with their children; the balance reopens them.
     # With a knot line at v = 0.3 the layer leaves it at u = 0: the two sides are patches
-    # of their own, and the balance looks across the patches' common side
+    # of their own, and the balance looks across the patches' common side (t = 0 and 1;
+    # with u and v exchanged, the line u = 0.3 between two slabs)
     exact = layer_abs_k(delta, slope)
-    r = integrate(SQUARE, layer_field(delta, slope), 0.05, 0.05, rtol=1e-4, depth_limit=40,
-                  point_budget=20_000_000, v_breaks=v_breaks)
+    f = layer_field(delta, slope)
+    field = (lambda u, v: f(v, u)) if exchanged else f
+    r = integrate(SQUARE, field, 0.05, 0.05, rtol=1e-4, depth_limit=40, point_budget=20_000_000,
+                  **{"u_breaks" if exchanged else "v_breaks": breaks})
     assert r.converged["int_abs_K"] and not r.budget_spent
     assert abs(r.values["int_abs_K"] - exact) <= r.errors["int_abs_K"]
 
