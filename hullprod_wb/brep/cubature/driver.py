@@ -64,7 +64,6 @@ class Integration:
                  lines=True, point_budget=None, balance=False):
         self.prefetch = prefetch
         self.balance = bool(balance)  # the 2:1 balance on jumps (balance.unbalanced)
-        self.n_reopened = 0
         self.f = CountedField(field)
         self.tau_H, self.tau_K = tau_H, tau_K
         self.order, self.rtol = order, rtol
@@ -256,7 +255,6 @@ class Integration:
         gone = CellSet.concat([p.take(m) for p, m in zip(self.accepted, reopen)])
         self.accepted = [p.take(~m) for p, m in zip(self.accepted, reopen)]
         self.err_acc = self.err_acc - gone.err.sum(0)
-        self.n_reopened += gone.size
         ch = self.evaluate(child_cells(gone.boxes()))
         names = ("Q", "err_e", "mixed", "peak", "pmeas", "sJ", "sK", "sH", "sreg")
         return CellSet.concat([a.boxes().with_(**{k: getattr(a, k) for k in names}),
