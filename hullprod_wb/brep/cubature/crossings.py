@@ -30,10 +30,18 @@ def line_segments(ls, mc, cell, pid, sig):
     u, _ = ls.patches.u_of_sigma(pid, sig)
     lo, hi = ls.patches.bounds(pid, u)
     width = mc.turned(cell, hi - lo, "width")
-    if np.isnan(mc.width[cell]).all():
-        line = lambda x, i: ls.field(u[i], lo[i] + x * width[i])  # noqa: E731 (no cell turned)
-    else:
-        line = lambda x, i: field_at(ls, mc, cell[i], sig[i], x)  # noqa: E731
+    # a turned cell's line runs along sigma at v = lo + sig width (its bounds are constants)
+    turned = ~np.isnan(mc.width[cell])
+    some_turned = bool(turned.any())
+
+    def line(x, i):
+        uu, vv = u[i], lo[i] + x * width[i]
+        if some_turned:
+            k = np.nonzero(turned[i])[0]
+            uu[k] = ls.patches.u_of_sigma(pid[i[k]], x[k])[0]
+            vv[k] = lo[i[k]] + sig[i[k]] * width[i[k]]
+        return ls.field(uu, vv)
+
     evalf = SegmentField(mc.interp.C, mc.interp.use, mc.boxes, cell, sig, "t", line)
     return evalf, width
 
